@@ -1,0 +1,32 @@
+"""edmf_rs: error-domain model falsification (Goulet & Smith 2013) with a Rust core.
+
+Typical use::
+
+    import edmf_rs, scipy.stats as st
+    combined = edmf_rs.combine(model=[...], measurement=[st.norm(0, 0.02)], n_sensors=n_m)
+    thresholds = edmf_rs.threshold_bounds(combined, phi=0.95)
+    result = edmf_rs.falsify(predictions, measured, thresholds)
+    print(result.summary())
+"""
+
+from . import reference
+from ._core import get_num_threads, set_num_threads
+from .falsify import falsify
+from .result import FalsificationResult
+from .thresholds import Thresholds, sensor_probability, threshold_bounds
+from .uncertainty import CombinedUncertainty, combine, relative_to_measured
+
+__all__ = [
+    "CombinedUncertainty",
+    "FalsificationResult",
+    "Thresholds",
+    "combine",
+    "falsify",
+    "get_num_threads",
+    "reference",
+    "relative_to_measured",
+    "sensor_probability",
+    "set_num_threads",
+    "threshold_bounds",
+]
+__version__ = "0.1.0"

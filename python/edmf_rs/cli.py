@@ -1,0 +1,55 @@
+"""The ``edmf-rs`` command line (also ``python -m edmf_rs``).
+
+User errors (bad arguments, bad project files, unreadable inputs) print one
+message and exit with status 2; set ``EDMF_RS_DEBUG=1`` for the traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="edmf-rs",
+        description="Error-domain model falsification (Goulet & Smith 2013) with a Rust core.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    rep = sub.add_parser("reproduce", help="reproduce the paper: figures, Table 1 and results.json")
+    rep.add_argument("--out", default="edmf-out", help="output folder (default: %(default)s)")
+    rep.add_argument("--seeds", type=int, default=200,
+                     help="independent noise draws per method, scenario and n_m (default: %(default)s)")
+    rep.add_argument("--seed", type=int, default=0, help="base random seed (default: %(default)s)")
+
+    run = sub.add_parser("run", help="run an identification from a project file (TOML)")
+    run.add_argument("project", help="project file, e.g. bridge.toml")
+    run.add_argument("--out", default=None, help="output folder (default: next to the project file)")
+    run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "reproduce":
+            from .reproduce import reproduce_cli
+
+            return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed)
+        from .project import run_cli
+
+        return run_cli(args.project, out=args.out, progress=not args.no_progress)
+    except (ValueError, TypeError, OSError) as exc:
+        if os.environ.get("EDMF_RS_DEBUG"):
+            raise
+        print(f"edmf-rs: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("edmf-rs: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

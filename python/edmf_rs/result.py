@@ -1,0 +1,104 @@
+"""The outcome of falsifying a set of model instances (Sec. 3.1 and 3.3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .thresholds import Thresholds
+
+
+@dataclass(frozen=True, eq=False)
+class FalsificationResult:
+    """Candidate model set and diagnostics.
+
+    Attributes
+    ----------
+    thresholds, measurements
+        What the instances were judged against (Eq. 8).
+    n_instances
+        Model instances seen.
+    candidate_indices
+        Sorted int64 indices of the candidate models (instances not falsified).
+    per_sensor_falsified
+        int64 (n_m): instances each sensor rejects. ``None`` with ``diagnostics=False``.
+    falsified_only_by
+        int64 (n_m): instances rejected by that sensor and by no other, so
+        ``n_candidates + falsified_only_by[i]`` is the candidate set size when
+        sensor i is left out. ``None`` with ``diagnostics=False``.
+    n_invalid
+        Instances with a NaN prediction (never candidates). ``None`` with
+        ``diagnostics=False``.
+    n_violated
+        int32 (N): sensors each instance violates, when kept.
+    """
+
+    thresholds: Thresholds
+    measurements: np.ndarray
+    n_instances: int
+    candidate_indices: np.ndarray
+    per_sensor_falsified: np.ndarray | None = None
+    falsified_only_by: np.ndarray | None = None
+    n_invalid: int | None = None
+    n_violated: np.ndarray | None = None
+
+    @property
+    def n_sensors(self) -> int:
+        return self.thresholds.n_sensors
+
+    @property
+    def n_candidates(self) -> int:
+        return int(self.candidate_indices.shape[0])
+
+    @property
+    def model_class_falsified(self) -> bool:
+        """True iff every instance is falsified: the model class itself is (Sec. 3.1)."""
+        return self.n_candidates == 0
+
+    @cached_property
+    def candidate_mask(self) -> np.ndarray:
+        mask = np.zeros(self.n_instances, dtype=bool)
+        mask[self.candidate_indices] = True
+        mask.flags.writeable = False
+        return mask
+
+    @property
+    def candidates_without_sensor(self) -> np.ndarray | None:
+        """Candidate set size when each sensor in turn is ignored (leave-one-out)."""
+        if self.falsified_only_by is None:
+            return None
+        return self.n_candidates + self.falsified_only_by
+
+    def summary(self) -> str:
+        t = self.thresholds
+        share = 100.0 * self.n_candidates / self.n_instances if self.n_instances else 0.0
+        lines = [
+            f"EDMF: {self.n_instances:,} model instances, {self.n_sensors} sensors",
+        ]
+        if t.phi is not None:
+            lines.append(
+                f"thresholds: phi = {t.phi:g}, {t.correction} correction, per-sensor probability {t.probability:.6f}"
+            )
+        if self.model_class_falsified:
+            lines.append("candidate model set: EMPTY - every instance is falsified, so the model class is falsified")
+        else:
+            lines.append(f"candidate model set: {self.n_candidates:,} instances ({share:.3g} %)")
+        if self.n_invalid:
+            lines.append(f"invalid instances (NaN predictions): {self.n_invalid:,}")
+        if self.per_sensor_falsified is not None and self.n_instances:
+            order = np.argsort(-self.per_sensor_falsified, kind="stable")[:5]
+            top = ", ".join(f"#{i} ({self.per_sensor_falsified[i]:,})" for i in order)
+            lines.append(f"sensors falsifying most instances: {top}")
+            lone = self.candidates_without_sensor
+            if self.model_class_falsified and lone.max() > 0:
+                i = int(np.argmax(lone))
+                lines.append(
+                    f"ignoring sensor #{i} alone would leave {lone[i]:,} candidates: check it for an outlier"
+                )
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return (f"FalsificationResult(n_instances={self.n_instances}, n_candidates={self.n_candidates}, "
+                f"model_class_falsified={self.model_class_falsified})")

@@ -1,0 +1,139 @@
+"""Combined uncertainty U_c (Eq. 4): model sources minus measurement sources.
+
+From Eq. 4, ``g_i(theta*) - y_i = eps_model,i - eps_measure,i``, so the residual
+of the right model instance is distributed as U_c = sum(model) - sum(measurement).
+Sources are ordinary frozen ``scipy.stats`` distributions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from . import intervals
+from ._validate import finite_vector, positive_int
+
+
+@dataclass(frozen=True, eq=False)
+class CombinedUncertainty:
+    """U_c per sensor: exact (``distribution``, a vectorised normal) when every
+    source is normal, otherwise Monte Carlo ``samples`` of shape (n_samples, n_m)."""
+
+    n_sensors: int
+    distribution: object | None = None
+    samples: np.ndarray | None = None
+
+    @property
+    def exact(self) -> bool:
+        return self.distribution is not None
+
+    @property
+    def mean(self) -> np.ndarray:
+        return np.asarray(self.distribution.mean()) if self.exact else self.samples.mean(axis=0)
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.asarray(self.distribution.std()) if self.exact else self.samples.std(axis=0, ddof=1)
+
+
+def _source_dists(source, name: str) -> tuple[list | None, object | None, int | None]:
+    """(per-sensor list, or None), (vectorised/scalar dist, or None), its n_m."""
+    if intervals.is_frozen(source):
+        shape = intervals.batch_shape(source)
+        if len(shape) > 1:
+            raise ValueError(f"{name}: expected a distribution over at most one axis (sensors), got {shape}")
+        return None, source, (shape[0] if shape else None)
+    if isinstance(source, (list, tuple)) and source and all(map(intervals.is_frozen, source)):
+        for d in source:
+            if intervals.batch_shape(d) != ():
+                raise ValueError(f"{name}: a per-sensor list must hold scalar distributions")
+        return list(source), None, len(source)
+    raise TypeError(
+        f"{name}: expected frozen scipy.stats continuous distributions (e.g. scipy.stats.norm(0, 1)), "
+        f"or a list of them with one per sensor; got {type(source).__name__}"
+    )
+
+
+def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
+            n_sensors: int | None = None) -> CombinedUncertainty:
+    """Combine uncertainty sources into U_c per sensor (Eq. 4).
+
+    ``model`` and ``measurement`` are a source or a list of sources; each source
+    is a frozen distribution (scalar: same for all sensors; or vectorised over
+    the n_m sensors) or a list of n_m scalar frozen distributions. Sources are
+    independent of each other at a sensor; how sensors depend on each other does
+    not matter to the thresholds, which use each sensor's marginal only.
+    """
+    sources = []
+    for sign, group, name in ((1.0, model, "model"), (-1.0, measurement, "measurement")):
+        group = [group] if intervals.is_frozen(group) else list(group)
+        for k, src in enumerate(group):
+            per_sensor, dist, n = _source_dists(src, f"{name}[{k}]")
+            sources.append((sign, per_sensor, dist, n, f"{name}[{k}]"))
+    if not sources:
+        raise ValueError("model, measurement: expected at least one uncertainty source")
+    sizes = {n for *_, n, _ in sources if n is not None}
+    if n_sensors is not None:
+        sizes.add(positive_int(n_sensors, "n_sensors"))
+    if len(sizes) > 1:
+        detail = ", ".join(f"{nm}: {n}" for *_, n, nm in sources if n is not None)
+        raise ValueError(f"model, measurement: sources disagree on the number of sensors ({detail})")
+    if not sizes:
+        raise ValueError("n_sensors: every source is scalar, so give n_sensors")
+    n_m = sizes.pop()
+
+    per_sensor = [s[1] or intervals.split(s[2], n_m) for s in sources]
+    if all(d.dist.name == "norm" for group in per_sensor for d in group):
+        mean = np.zeros(n_m)
+        var = np.zeros(n_m)
+        for (sign, *_), group in zip(sources, per_sensor):
+            mean += sign * np.array([d.mean() for d in group])
+            var += np.array([d.var() for d in group])
+        if np.any(var <= 0):
+            raise ValueError("model, measurement: the combined standard deviation is zero at some sensor")
+        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)))
+
+    n_samples = positive_int(n_samples, "n_samples")
+    rng = np.random.default_rng(seed)
+    samples = np.zeros((n_samples, n_m))
+    for sign, group, dist, _, _ in sources:
+        if dist is not None:
+            samples += sign * dist.rvs(size=(n_samples, n_m), random_state=rng)
+        else:
+            for j, d in enumerate(group):
+                samples[:, j] += sign * d.rvs(size=n_samples, random_state=rng)
+    return CombinedUncertainty(n_m, samples=samples)
+
+
+def relative_to_measured(fraction, measured):
+    """A source expressed as a fraction of each sensor's measured value.
+
+    ``fraction`` is a scalar frozen distribution of the fraction, e.g.
+    ``scipy.stats.norm(-0.10, 0.15)`` for the paper's model uncertainty "mean
+    -10 % of the measured value, 15 % standard deviation". Returns the frozen
+    distribution of ``fraction * y`` vectorised over the sensors. Negative
+    measured values flip the fraction, which keeps the family only when it is
+    symmetric, so asymmetric families need positive measurements.
+    """
+    if not intervals.is_frozen(fraction) or intervals.batch_shape(fraction) != ():
+        raise TypeError("fraction: expected a scalar frozen scipy.stats distribution")
+    y = finite_vector(measured, "measured")
+    family = fraction.dist
+    shapes = fraction.args[: family.numargs]
+    rest = fraction.args[family.numargs:]
+    loc = fraction.kwds.get("loc", rest[0] if len(rest) > 0 else 0.0)
+    scale = fraction.kwds.get("scale", rest[1] if len(rest) > 1 else 1.0)
+    shape_kwds = {k: v for k, v in fraction.kwds.items() if k not in ("loc", "scale")}
+    if family.name not in intervals.SYMMETRIC_UNIMODAL:
+        if np.any(y <= 0):
+            raise ValueError(
+                f"measured: a {family.name} fraction needs positive measured values "
+                "(only symmetric families stay in their family when y < 0)"
+            )
+        return family(*shapes, loc=loc * y, scale=scale * y, **shape_kwds)
+    # y*X for X symmetric about c: y*c + |y|*(X - c); the standard form's centre is c0.
+    c0 = float(family(*shapes, **shape_kwds).median())
+    centre = loc + scale * c0
+    return family(*shapes, loc=y * centre - np.abs(y) * scale * c0, scale=np.abs(y) * scale, **shape_kwds)

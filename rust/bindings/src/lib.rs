@@ -1,0 +1,174 @@
+//! `edmf_rs._core`: the thin PyO3 layer over `edmf-core`.
+//!
+//! It only converts NumPy arrays into core views (no copies), releases the GIL
+//! around all core work, polls for Ctrl-C between slabs and maps core errors to
+//! `ValueError`. Argument checking that needs Python types lives in the Python
+//! package; the core re-checks everything it relies on.
+
+mod pool;
+mod views;
+
+use edmf_core::{EdmfError, Mode, Thresholds};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::prelude::*;
+use views::matrix_view;
+
+/// Runs `work` with the GIL released; `work` gets a stop check that re-attaches
+/// briefly to let Python run its signal handlers (Ctrl-C -> KeyboardInterrupt).
+fn detached<R: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&mut dyn FnMut() -> bool) -> Result<R, EdmfError> + Send,
+) -> PyResult<R> {
+    let mut raised: Option<PyErr> = None;
+    let result = py.detach(|| {
+        let mut stop = || match Python::attach(|py| py.check_signals()) {
+            Ok(()) => false,
+            Err(err) => {
+                raised = Some(err);
+                true
+            }
+        };
+        work(&mut stop)
+    });
+    result.map_err(|err| match err {
+        EdmfError::Interrupted => {
+            raised.take().unwrap_or_else(|| PyKeyboardInterrupt::new_err("interrupted"))
+        }
+        other => PyValueError::new_err(other.to_string()),
+    })
+}
+
+fn core_err(err: EdmfError) -> PyErr {
+    PyValueError::new_err(err.to_string())
+}
+
+/// Shortest intervals holding `probability` of each column of `samples` (Eq. 5).
+#[pyfunction]
+fn shortest_intervals<'py>(
+    py: Python<'py>,
+    samples: PyReadonlyArray2<'py, f64>,
+    probability: f64,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    let view = matrix_view(&samples, "combined")?;
+    let pool = pool::current()?;
+    let thresholds =
+        detached(py, |stop| edmf_core::shortest_intervals(view, probability, &pool, stop))?;
+    Ok((
+        thresholds.low().to_vec().into_pyarray(py),
+        thresholds.high().to_vec().into_pyarray(py),
+    ))
+}
+
+/// Fewest Monte Carlo samples that resolve `probability`: ceil(1/(1-p)).
+#[pyfunction]
+fn min_samples(probability: f64) -> PyResult<usize> {
+    edmf_core::min_samples(probability).map_err(core_err)
+}
+
+/// Squared Mahalanobis distance of every row of `points` (Eq. 9).
+#[pyfunction]
+fn mahalanobis_squared<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    mean: PyReadonlyArray1<'py, f64>,
+    covariance: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let view = matrix_view(&points, "points")?;
+    let mean = mean.as_slice()?.to_vec();
+    let cov: Vec<f64> = covariance.as_array().iter().copied().collect();
+    let pool = pool::current()?;
+    let d = detached(py, |_| edmf_core::ellipse::mahalanobis_squared(view, &mean, &cov, &pool))?;
+    Ok(d.into_pyarray(py))
+}
+
+/// Streaming falsification (Eq. 8): feed chunks in order, read the results.
+#[pyclass(module = "edmf_rs._core")]
+struct Falsifier {
+    inner: edmf_core::Falsifier,
+}
+
+#[pymethods]
+impl Falsifier {
+    #[new]
+    #[pyo3(signature = (measurements, low, high, *, diagnostics=true, keep_violations=true))]
+    fn new(
+        measurements: PyReadonlyArray1<'_, f64>,
+        low: PyReadonlyArray1<'_, f64>,
+        high: PyReadonlyArray1<'_, f64>,
+        diagnostics: bool,
+        keep_violations: bool,
+    ) -> PyResult<Self> {
+        let thresholds =
+            Thresholds::new(low.as_slice()?.to_vec(), high.as_slice()?.to_vec()).map_err(core_err)?;
+        let mode = if diagnostics { Mode::Diagnose } else { Mode::Screen };
+        let inner = edmf_core::Falsifier::new(measurements.as_slice()?, &thresholds, mode, keep_violations)
+            .map_err(core_err)?;
+        Ok(Falsifier { inner })
+    }
+
+    /// Falsifies the next chunk (float64 or float32, any positive strides).
+    fn update(&mut self, py: Python<'_>, chunk: &Bound<'_, PyAny>) -> PyResult<()> {
+        let pool = pool::current()?;
+        let inner = &mut self.inner;
+        if let Ok(a) = chunk.extract::<PyReadonlyArray2<'_, f64>>() {
+            let view = matrix_view(&a, "predictions")?;
+            detached(py, |stop| inner.update(view, &pool, stop))
+        } else if let Ok(a) = chunk.extract::<PyReadonlyArray2<'_, f32>>() {
+            let view = matrix_view(&a, "predictions")?;
+            detached(py, |stop| inner.update(view, &pool, stop))
+        } else {
+            Err(pyo3::exceptions::PyTypeError::new_err(
+                "predictions: expected a 2-D float64 or float32 NumPy array chunk",
+            ))
+        }
+    }
+
+    #[getter]
+    fn n_instances(&self) -> u64 {
+        self.inner.n_instances()
+    }
+
+    #[getter]
+    fn n_sensors(&self) -> usize {
+        self.inner.n_sensors()
+    }
+
+    #[getter]
+    fn n_candidates(&self) -> usize {
+        self.inner.candidates().len()
+    }
+
+    /// Candidate indices from position `start` of the candidate list on.
+    #[pyo3(signature = (start=0))]
+    fn candidates<'py>(&self, py: Python<'py>, start: usize) -> Bound<'py, PyArray1<u64>> {
+        let all = self.inner.candidates();
+        all[start.min(all.len())..].to_vec().into_pyarray(py)
+    }
+
+    /// `(per_sensor_falsified, falsified_only_by, n_invalid)`, or None when screening.
+    fn tally<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> Option<(Bound<'py, PyArray1<u64>>, Bound<'py, PyArray1<u64>>, u64)> {
+        self.inner.tally().map(|t| {
+            (t.per_sensor.clone().into_pyarray(py), t.only_by.clone().into_pyarray(py), t.invalid)
+        })
+    }
+
+    /// The per-instance rejecting-sensor counts (moved out, not copied), if kept.
+    fn take_violations<'py>(&mut self, py: Python<'py>) -> Option<Bound<'py, PyArray1<u32>>> {
+        self.inner.take_violations().map(|v| v.into_pyarray(py))
+    }
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(shortest_intervals, m)?)?;
+    m.add_function(wrap_pyfunction!(min_samples, m)?)?;
+    m.add_function(wrap_pyfunction!(mahalanobis_squared, m)?)?;
+    m.add_function(wrap_pyfunction!(pool::set_num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(pool::get_num_threads, m)?)?;
+    m.add_class::<Falsifier>()?;
+    Ok(())
+}

@@ -1,0 +1,61 @@
+//! The package's own rayon pool (never the global one, so edmf_rs does not
+//! fight other rayon users in the same process). Sized by `set_num_threads`,
+//! else `EDMF_RS_NUM_THREADS`, else the number of cores.
+
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use rayon::{ThreadPool, ThreadPoolBuilder};
+use std::sync::{Arc, Mutex};
+
+static POOL: Mutex<Option<Arc<ThreadPool>>> = Mutex::new(None);
+
+const ENV: &str = "EDMF_RS_NUM_THREADS";
+
+fn build(threads: usize) -> PyResult<Arc<ThreadPool>> {
+    ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("edmf-rs-{i}"))
+        .build()
+        .map(Arc::new)
+        .map_err(|e| PyRuntimeError::new_err(format!("could not start {threads} threads: {e}")))
+}
+
+fn default_threads() -> PyResult<usize> {
+    match std::env::var(ENV) {
+        Ok(v) => match v.trim().parse::<usize>() {
+            Ok(n) if n > 0 => Ok(n),
+            _ => Err(PyValueError::new_err(format!(
+                "{ENV}: expected a positive integer, got {v:?}"
+            ))),
+        },
+        Err(_) => Ok(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
+    }
+}
+
+/// The pool to run on, created on first use.
+pub fn current() -> PyResult<Arc<ThreadPool>> {
+    let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(pool) = guard.as_ref() {
+        return Ok(Arc::clone(pool));
+    }
+    let pool = build(default_threads()?)?;
+    *guard = Some(Arc::clone(&pool));
+    Ok(pool)
+}
+
+/// Sets how many threads edmf_rs uses from now on.
+#[pyfunction]
+pub fn set_num_threads(n: i64) -> PyResult<()> {
+    if n < 1 {
+        return Err(PyValueError::new_err(format!("n: expected a positive number of threads, got {n}")));
+    }
+    let pool = build(n as usize)?;
+    *POOL.lock().unwrap_or_else(|e| e.into_inner()) = Some(pool);
+    Ok(())
+}
+
+/// How many threads edmf_rs uses.
+#[pyfunction]
+pub fn get_num_threads() -> PyResult<usize> {
+    Ok(current()?.current_num_threads())
+}

@@ -1,0 +1,280 @@
+//! Streaming accumulator: feed it chunks of model-instance predictions in
+//! order and it keeps the candidate model set and the diagnostics, so memory
+//! grows with the number of candidates, not the number of instances.
+//!
+//! Work inside a chunk is split into slabs (about a million predictions). The
+//! caller's `stop` check runs between slabs on the calling thread, which is how
+//! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
+
+use crate::error::{EdmfError, Result};
+use crate::kernel::{diagnose, screen, Prediction, SensorBounds, Tally};
+use crate::matrix::Matrix;
+use crate::thresholds::Thresholds;
+use rayon::prelude::*;
+use rayon::ThreadPool;
+
+/// Rows one rayon task handles; large enough to amortise scheduling.
+const BLOCK_ROWS: usize = 1024;
+/// Predictions per slab between two `stop` checks.
+const SLAB_ELEMENTS: usize = 1 << 20;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Visit every sensor of every instance: candidates plus per-sensor counts,
+    /// per-instance violation counts and invalid instances.
+    Diagnose,
+    /// Stop at the first rejecting sensor: candidates only, fastest.
+    Screen,
+}
+
+#[derive(Debug)]
+pub struct Falsifier {
+    bounds: SensorBounds,
+    /// Visiting order for `Screen`, learned from the first slab.
+    screen_bounds: Option<SensorBounds>,
+    mode: Mode,
+    keep_violations: bool,
+    n_instances: u64,
+    tally: Tally,
+    candidates: Vec<u64>,
+    violations: Vec<u32>,
+    scratch: Vec<u32>,
+}
+
+impl Falsifier {
+    pub fn new(
+        measured: &[f64],
+        thresholds: &Thresholds,
+        mode: Mode,
+        keep_violations: bool,
+    ) -> Result<Self> {
+        let n_m = thresholds.n_sensors();
+        if measured.len() != n_m {
+            return Err(EdmfError::invalid(
+                "measurements",
+                format!("one value per sensor ({n_m} thresholds), got {}", measured.len()),
+            ));
+        }
+        if let Some((i, y)) = measured.iter().enumerate().find(|(_, y)| !y.is_finite()) {
+            return Err(EdmfError::invalid(
+                "measurements",
+                format!("finite values, got {y} at sensor {i}"),
+            ));
+        }
+        if keep_violations && mode == Mode::Screen {
+            return Err(EdmfError::invalid(
+                "keep_violations",
+                "False when diagnostics are off (screening stops at the first violation)",
+            ));
+        }
+        Ok(Falsifier {
+            bounds: SensorBounds::new(measured, thresholds.low(), thresholds.high()),
+            screen_bounds: None,
+            mode,
+            keep_violations,
+            n_instances: 0,
+            tally: Tally::zeros(n_m),
+            candidates: Vec::new(),
+            violations: Vec::new(),
+            scratch: Vec::new(),
+        })
+    }
+
+    pub fn n_sensors(&self) -> usize {
+        self.bounds.len()
+    }
+
+    pub fn n_instances(&self) -> u64 {
+        self.n_instances
+    }
+
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Global indices of the candidates so far, ascending.
+    pub fn candidates(&self) -> &[u64] {
+        &self.candidates
+    }
+
+    /// Per-sensor diagnostics; `None` when screening (not every sensor is visited).
+    pub fn tally(&self) -> Option<&Tally> {
+        (self.mode == Mode::Diagnose).then_some(&self.tally)
+    }
+
+    /// Rejecting-sensor count of every instance so far, if kept.
+    pub fn violations(&self) -> Option<&[u32]> {
+        self.keep_violations.then_some(&self.violations[..])
+    }
+
+    /// Takes the stored per-instance counts, leaving the accumulator without them.
+    pub fn take_violations(&mut self) -> Option<Vec<u32>> {
+        self.keep_violations.then(|| std::mem::take(&mut self.violations))
+    }
+
+    /// Falsifies the next `chunk` of instances (rows; one column per sensor).
+    pub fn update<T: Prediction>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<()> {
+        let n_m = self.n_sensors();
+        if chunk.cols() != n_m {
+            return Err(EdmfError::invalid(
+                "predictions",
+                format!("{n_m} columns (one per sensor), got a chunk of width {}", chunk.cols()),
+            ));
+        }
+        let rows = chunk.rows();
+        let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
+        let (kept_candidates, kept_violations) = (self.candidates.len(), self.violations.len());
+        let mut chunk_tally = Tally::zeros(n_m);
+        for first in (0..rows).step_by(slab_rows) {
+            let last = (first + slab_rows).min(rows);
+            let slab = chunk.slice_rows(first, last);
+            if self.scratch.len() < last - first {
+                self.scratch.resize(last - first, 0);
+            }
+            let out = &mut self.scratch[..last - first];
+            match (self.mode, &self.screen_bounds) {
+                (Mode::Diagnose, _) => {
+                    chunk_tally.add(&diagnose_parallel(slab, &self.bounds, out, pool));
+                    if self.keep_violations {
+                        self.violations.extend_from_slice(out);
+                    }
+                }
+                (Mode::Screen, Some(order)) => screen_parallel(slab, order, out, pool),
+                (Mode::Screen, None) => {
+                    // Learn which sensors reject most; candidates do not depend on it.
+                    let t = diagnose_parallel(slab, &self.bounds, out, pool);
+                    let mut order: Vec<usize> = (0..n_m).collect();
+                    order.sort_by_key(|&j| std::cmp::Reverse(t.per_sensor[j]));
+                    self.screen_bounds = Some(self.bounds.reordered(&order));
+                }
+            }
+            let base = self.n_instances + first as u64;
+            self.candidates.extend(
+                out.iter().enumerate().filter(|(_, &v)| v == 0).map(|(i, _)| base + i as u64),
+            );
+            if stop() {
+                self.candidates.truncate(kept_candidates);
+                self.violations.truncate(kept_violations);
+                return Err(EdmfError::Interrupted);
+            }
+        }
+        self.tally.add(&chunk_tally);
+        self.n_instances += rows as u64;
+        Ok(())
+    }
+}
+
+fn diagnose_parallel<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    pool: &ThreadPool,
+) -> Tally {
+    let n_m = b.len();
+    pool.install(|| {
+        out.par_chunks_mut(BLOCK_ROWS)
+            .enumerate()
+            .fold(
+                || Tally::zeros(n_m),
+                |mut t, (k, o)| {
+                    let first = k * BLOCK_ROWS;
+                    diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
+                    t
+                },
+            )
+            .reduce(|| Tally::zeros(n_m), Tally::merge)
+    })
+}
+
+fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], pool: &ThreadPool) {
+    pool.install(|| {
+        out.par_chunks_mut(BLOCK_ROWS).enumerate().for_each(|(k, o)| {
+            let first = k * BLOCK_ROWS;
+            screen(m.slice_rows(first, first + o.len()), b, o);
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pool(n: usize) -> ThreadPool {
+        rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
+    }
+
+    /// Deterministic pseudo-random predictions around the measurements.
+    fn predictions(n: usize, n_m: usize) -> Vec<f64> {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        (0..n * n_m)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 11) as f64 / (1u64 << 53) as f64 * 2.2 - 1.1
+            })
+            .collect()
+    }
+
+    fn run(data: &[f64], n_m: usize, chunk_rows: usize, threads: usize, mode: Mode) -> Falsifier {
+        let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
+        let keep = mode == Mode::Diagnose;
+        let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, keep).unwrap();
+        let p = pool(threads);
+        for chunk in data.chunks(chunk_rows * n_m) {
+            let m = Matrix::row_major(chunk, chunk.len() / n_m, n_m).unwrap();
+            f.update(m, &p, &mut || false).unwrap();
+        }
+        f
+    }
+
+    #[test]
+    fn result_is_independent_of_chunking_threads_and_mode() {
+        let (n, n_m) = (20_000, 3);
+        let data = predictions(n, n_m);
+        let a = run(&data, n_m, n, 1, Mode::Diagnose);
+        let b = run(&data, n_m, 777, 2, Mode::Diagnose);
+        let c = run(&data, n_m, 1500, 2, Mode::Screen);
+        assert_eq!(a.n_instances(), n as u64);
+        assert_eq!(a.candidates(), b.candidates());
+        assert_eq!(a.candidates(), c.candidates());
+        assert_eq!(a.tally(), b.tally());
+        assert_eq!(a.violations(), b.violations());
+        assert!(c.tally().is_none());
+        // Brute force: a candidate has every residual within [-1, 1].
+        let expected: Vec<u64> = (0..n)
+            .filter(|&i| data[i * n_m..(i + 1) * n_m].iter().all(|r| r.abs() <= 1.0))
+            .map(|i| i as u64)
+            .collect();
+        assert!(!expected.is_empty() && expected.len() < n);
+        assert_eq!(a.candidates(), &expected[..]);
+    }
+
+    #[test]
+    fn wrong_width_is_an_error_and_interruption_leaves_no_trace() {
+        let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
+        let mut f = Falsifier::new(&[0.0, 0.0], &thr, Mode::Diagnose, true).unwrap();
+        let p = pool(1);
+        let bad = [0.0; 3];
+        assert!(f.update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false).is_err());
+        let data = vec![0.0; 2 * 2_000_000];
+        let m = Matrix::row_major(&data, 2_000_000, 2).unwrap();
+        assert_eq!(f.update(m, &p, &mut || true), Err(EdmfError::Interrupted));
+        assert_eq!(f.n_instances(), 0);
+        assert!(f.candidates().is_empty());
+        assert_eq!(f.violations().unwrap().len(), 0);
+    }
+
+    #[test]
+    fn measurements_must_match_and_be_finite() {
+        let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
+        assert!(Falsifier::new(&[0.0], &thr, Mode::Diagnose, false).is_err());
+        assert!(Falsifier::new(&[0.0, f64::INFINITY], &thr, Mode::Diagnose, false).is_err());
+        assert!(Falsifier::new(&[0.0, 0.0], &thr, Mode::Screen, true).is_err());
+    }
+}

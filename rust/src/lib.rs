@@ -1,0 +1,23 @@
+//! edmf-core: error-domain model falsification (Goulet & Smith 2013) in pure Rust.
+//!
+//! - [`thresholds`]: per-sensor threshold bounds from Monte Carlo samples of the
+//!   combined uncertainty (shortest intervals, Eq. 5).
+//! - [`kernel`] and [`falsifier`]: the falsification rule (Eq. 8) over millions of
+//!   model instances, in parallel and streaming, deterministic whatever the
+//!   thread count and chunking.
+//! - [`ellipse`]: Mahalanobis distances for the ellipsoidal-bounds comparison (Eq. 9).
+//!
+//! No Python here: the `edmf_rs` package wraps this crate through a thin PyO3 layer.
+
+pub mod ellipse;
+pub mod error;
+pub mod falsifier;
+pub mod kernel;
+pub mod matrix;
+pub mod thresholds;
+
+pub use error::{EdmfError, Result};
+pub use falsifier::{Falsifier, Mode};
+pub use kernel::{Prediction, Tally};
+pub use matrix::Matrix;
+pub use thresholds::{min_samples, shortest_interval, shortest_intervals, Thresholds};

@@ -1,0 +1,133 @@
+//! A borrowed, strided 2-D view (rows = model instances, columns = sensors).
+//!
+//! NumPy hands us C-ordered, Fortran-ordered or sliced arrays; this view reads
+//! all of them in place, so predictions are never copied to be falsified.
+
+use crate::error::{EdmfError, Result};
+
+#[derive(Debug, Clone, Copy)]
+pub struct Matrix<'a, T> {
+    data: &'a [T],
+    rows: usize,
+    cols: usize,
+    row_stride: usize,
+    col_stride: usize,
+}
+
+impl<'a, T: Copy> Matrix<'a, T> {
+    /// A view of `rows x cols` elements where element (i, j) is
+    /// `data[i * row_stride + j * col_stride]`. Fails if that would read past `data`.
+    pub fn new(
+        data: &'a [T],
+        rows: usize,
+        cols: usize,
+        row_stride: usize,
+        col_stride: usize,
+    ) -> Result<Self> {
+        if rows > 0 && cols > 0 {
+            let last = (rows - 1)
+                .checked_mul(row_stride)
+                .and_then(|a| (cols - 1).checked_mul(col_stride).and_then(|b| a.checked_add(b)));
+            match last {
+                Some(last) if last < data.len() => {}
+                _ => {
+                    return Err(EdmfError::invalid(
+                        "predictions",
+                        format!(
+                            "a {rows}x{cols} view with strides ({row_stride}, {col_stride}) \
+                             does not fit in {} elements",
+                            data.len()
+                        ),
+                    ))
+                }
+            }
+        }
+        Ok(Matrix { data, rows, cols, row_stride, col_stride })
+    }
+
+    /// A C-ordered (row-major, contiguous) view.
+    pub fn row_major(data: &'a [T], rows: usize, cols: usize) -> Result<Self> {
+        if rows.checked_mul(cols) != Some(data.len()) {
+            return Err(EdmfError::invalid(
+                "predictions",
+                format!("{} elements for a {rows}x{cols} matrix", data.len()),
+            ));
+        }
+        Self::new(data, rows, cols, cols, 1)
+    }
+
+    /// A Fortran-ordered (column-major, contiguous) view.
+    pub fn col_major(data: &'a [T], rows: usize, cols: usize) -> Result<Self> {
+        if rows.checked_mul(cols) != Some(data.len()) {
+            return Err(EdmfError::invalid(
+                "predictions",
+                format!("{} elements for a {rows}x{cols} matrix", data.len()),
+            ));
+        }
+        Self::new(data, rows, cols, 1, rows)
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    #[inline(always)]
+    pub fn get(&self, i: usize, j: usize) -> T {
+        self.data[i * self.row_stride + j * self.col_stride]
+    }
+
+    /// Row `i` as a slice when rows are contiguous (C order), else `None`.
+    #[inline(always)]
+    pub fn row_slice(&self, i: usize) -> Option<&'a [T]> {
+        if self.col_stride == 1 {
+            let start = i * self.row_stride;
+            Some(&self.data[start..start + self.cols])
+        } else {
+            None
+        }
+    }
+
+    /// Rows `start..end` as a view of their own.
+    pub fn slice_rows(&self, start: usize, end: usize) -> Matrix<'a, T> {
+        assert!(start <= end && end <= self.rows, "row range out of bounds");
+        let rows = end - start;
+        let data = if rows == 0 || self.cols == 0 {
+            &self.data[..0]
+        } else {
+            &self.data[start * self.row_stride..]
+        };
+        Matrix { data, rows, cols: self.cols, row_stride: self.row_stride, col_stride: self.col_stride }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layouts_read_the_same_elements() {
+        let c = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]; // 2x3 C order
+        let f = [1.0, 4.0, 2.0, 5.0, 3.0, 6.0]; // same matrix, F order
+        let mc = Matrix::row_major(&c, 2, 3).unwrap();
+        let mf = Matrix::col_major(&f, 2, 3).unwrap();
+        for i in 0..2 {
+            for j in 0..3 {
+                assert_eq!(mc.get(i, j), mf.get(i, j));
+            }
+        }
+        assert_eq!(mc.slice_rows(1, 2).get(0, 2), 6.0);
+        assert_eq!(mf.slice_rows(1, 2).get(0, 0), 4.0);
+    }
+
+    #[test]
+    fn a_view_that_overruns_its_data_is_an_error() {
+        let d = [0.0f64; 5];
+        assert!(Matrix::new(&d, 2, 3, 3, 1).is_err());
+        assert!(Matrix::row_major(&d, 2, 3).is_err());
+        assert!(Matrix::new(&d, 0, 3, 3, 1).is_ok());
+    }
+}
