@@ -12,7 +12,8 @@ Typical use::
 from . import reference
 from ._core import get_num_threads, set_num_threads
 from .falsify import falsify
-from .result import FalsificationResult
+from .model import falsify_model
+from .result import FalsificationResult, concatenate
 from .thresholds import Thresholds, sensor_probability, threshold_bounds
 from .uncertainty import CombinedUncertainty, combine, relative_to_measured
 
@@ -21,7 +22,9 @@ __all__ = [
     "FalsificationResult",
     "Thresholds",
     "combine",
+    "concatenate",
     "falsify",
+    "falsify_model",
     "get_num_threads",
     "reference",
     "relative_to_measured",

@@ -33,6 +33,9 @@ class FalsificationResult:
         ``diagnostics=False``.
     n_violated
         int32 (N): sensors each instance violates, when kept.
+    candidate_parameters, candidate_predictions
+        Parameters (n_c, p) and predictions (n_c, n_m) of the candidates, when
+        the instances came from :func:`edmf_rs.falsify_model`.
     """
 
     thresholds: Thresholds
@@ -43,6 +46,8 @@ class FalsificationResult:
     falsified_only_by: np.ndarray | None = None
     n_invalid: int | None = None
     n_violated: np.ndarray | None = None
+    candidate_parameters: np.ndarray | None = None
+    candidate_predictions: np.ndarray | None = None
 
     @property
     def n_sensors(self) -> int:
@@ -102,3 +107,47 @@ class FalsificationResult:
     def __repr__(self) -> str:
         return (f"FalsificationResult(n_instances={self.n_instances}, n_candidates={self.n_candidates}, "
                 f"model_class_falsified={self.model_class_falsified})")
+
+
+def concatenate(parts: list[FalsificationResult]) -> FalsificationResult:
+    """One result for consecutive blocks of instances, given in instance order.
+
+    Counts add up and candidate indices are shifted by the instances before
+    each block, so the outcome equals falsifying all instances at once.
+    """
+    if not parts:
+        raise ValueError("parts: expected at least one result")
+    first = parts[0]
+    for k, p in enumerate(parts):
+        if p.n_sensors != first.n_sensors or not (
+            np.array_equal(p.thresholds.low, first.thresholds.low)
+            and np.array_equal(p.thresholds.high, first.thresholds.high)
+            and np.array_equal(p.measurements, first.measurements)
+        ):
+            raise ValueError(f"parts: result {k} was computed against other thresholds or measurements")
+    offsets = np.cumsum([0] + [p.n_instances for p in parts[:-1]])
+
+    def total(field):
+        values = [getattr(p, field) for p in parts]
+        return None if any(v is None for v in values) else sum(values[1:], values[0])
+
+    def stacked(field, shift=False):
+        values = [getattr(p, field) for p in parts]
+        if any(v is None for v in values):
+            return None
+        if shift:
+            values = [v + off for v, off in zip(values, offsets)]
+        return np.concatenate(values)
+
+    return FalsificationResult(
+        thresholds=first.thresholds,
+        measurements=first.measurements,
+        n_instances=int(sum(p.n_instances for p in parts)),
+        candidate_indices=stacked("candidate_indices", shift=True).astype(np.int64),
+        per_sensor_falsified=total("per_sensor_falsified"),
+        falsified_only_by=total("falsified_only_by"),
+        n_invalid=total("n_invalid"),
+        n_violated=stacked("n_violated"),
+        candidate_parameters=stacked("candidate_parameters"),
+        candidate_predictions=stacked("candidate_predictions"),
+    )
