@@ -9,8 +9,10 @@ Typical use::
     print(result.summary())
 """
 
-from . import reference
+from . import baselines, coverage, examples, reference
 from ._core import get_num_threads, set_num_threads
+from .baselines import LeastSquaresResult, PosteriorResult, bayesian_posterior, least_squares
+from .coverage import CoverageResult
 from .falsify import falsify
 from .model import falsify_model
 from .result import FalsificationResult, concatenate
@@ -19,6 +21,14 @@ from .uncertainty import CombinedUncertainty, combine, relative_to_measured
 
 __all__ = [
     "CombinedUncertainty",
+    "CoverageResult",
+    "LeastSquaresResult",
+    "PosteriorResult",
+    "baselines",
+    "bayesian_posterior",
+    "coverage",
+    "examples",
+    "least_squares",
     "FalsificationResult",
     "Thresholds",
     "combine",

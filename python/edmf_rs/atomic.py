@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-import tempfile
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -16,9 +16,9 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
     """Yields a temporary path to write; on success it replaces ``target``."""
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    tmp = Path(tmp)
+    # A unique name in the same folder (so os.replace is atomic), created with
+    # the usual umask permissions (mkstemp would make the output private).
+    tmp = target.parent / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp"
     try:
         yield tmp
         with open(tmp, "rb+") as fh:

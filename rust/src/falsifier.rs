@@ -7,7 +7,7 @@
 //! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
 
 use crate::error::{EdmfError, Result};
-use crate::kernel::{diagnose, screen, Prediction, SensorBounds, Tally};
+use crate::kernel::{diagnose, screen, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use crate::thresholds::Thresholds;
 use rayon::prelude::*;
@@ -31,7 +31,7 @@ pub enum Mode {
 pub struct Falsifier {
     bounds: SensorBounds,
     /// Visiting order for `Screen`, learned from the first slab.
-    screen_bounds: Option<SensorBounds>,
+    screen_plan: Option<ScreenPlan>,
     mode: Mode,
     keep_violations: bool,
     n_instances: u64,
@@ -69,7 +69,7 @@ impl Falsifier {
         }
         Ok(Falsifier {
             bounds: SensorBounds::new(measured, thresholds.low(), thresholds.high()),
-            screen_bounds: None,
+            screen_plan: None,
             mode,
             keep_violations,
             n_instances: 0,
@@ -137,7 +137,7 @@ impl Falsifier {
                 self.scratch.resize(last - first, 0);
             }
             let out = &mut self.scratch[..last - first];
-            match (self.mode, &self.screen_bounds) {
+            match (self.mode, &self.screen_plan) {
                 (Mode::Diagnose, _) => {
                     chunk_tally.add(&diagnose_parallel(slab, &self.bounds, out, pool));
                     if self.keep_violations {
@@ -148,9 +148,7 @@ impl Falsifier {
                 (Mode::Screen, None) => {
                     // Learn which sensors reject most; candidates do not depend on it.
                     let t = diagnose_parallel(slab, &self.bounds, out, pool);
-                    let mut order: Vec<usize> = (0..n_m).collect();
-                    order.sort_by_key(|&j| std::cmp::Reverse(t.per_sensor[j]));
-                    self.screen_bounds = Some(self.bounds.reordered(&order));
+                    self.screen_plan = Some(ScreenPlan::new(&self.bounds, &t.per_sensor));
                 }
             }
             let base = self.n_instances + first as u64;
@@ -191,7 +189,7 @@ fn diagnose_parallel<T: Prediction>(
     })
 }
 
-fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], pool: &ThreadPool) {
+fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &ScreenPlan, out: &mut [u32], pool: &ThreadPool) {
     pool.install(|| {
         out.par_chunks_mut(BLOCK_ROWS).enumerate().for_each(|(k, o)| {
             let first = k * BLOCK_ROWS;

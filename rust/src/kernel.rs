@@ -4,13 +4,23 @@
 //! instances lying exactly on a bound get the same verdict in both.
 //!
 //! Two kernels: `diagnose` visits every sensor and tallies which ones reject
-//! (for diagnostics); `screen` stops at the first rejecting sensor, visiting
-//! sensors in the order that rejects most, and only tells candidate or not.
+//! (for diagnostics); `screen` only tells candidate or not, trying first the
+//! sensors that reject most and stopping as soon as one rejects.
 
 use crate::matrix::Matrix;
 
+#[cfg(target_arch = "x86_64")]
+use crate::simd::{self, Lanes};
+#[cfg(not(target_arch = "x86_64"))]
+/// Stand-in for the SIMD loads, which exist on x86-64 only.
+pub trait Lanes {}
+#[cfg(not(target_arch = "x86_64"))]
+impl Lanes for f32 {}
+#[cfg(not(target_arch = "x86_64"))]
+impl Lanes for f64 {}
+
 /// Element types the kernels read natively (no conversion pass).
-pub trait Prediction: Copy + Send + Sync + 'static {
+pub trait Prediction: Copy + Send + Sync + 'static + Lanes {
     fn to_f64(self) -> f64;
 }
 
@@ -106,34 +116,116 @@ fn outside(prediction: f64, measured: f64, low: f64, high: f64) -> bool {
     !((residual >= low) & (residual <= high)) // NaN is outside
 }
 
-/// Writes the number of rejecting sensors of each row of `m` into `out` and
-/// adds the per-sensor counts to `tally`. `b` must be in column order.
-pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
-    debug_assert_eq!(out.len(), m.rows());
-    for (i, n_out) in out.iter_mut().enumerate() {
-        let mut n = 0u32;
-        let mut nan = false;
-        if let Some(row) = m.row_slice(i) {
-            // Equal-length reslices let the compiler drop bounds checks and vectorise.
-            let k = row.len();
-            let (y, lo, hi) = (&b.measured[..k], &b.low[..k], &b.high[..k]);
-            let counts = &mut tally.per_sensor[..k];
-            for j in 0..k {
-                let p = row[j].to_f64();
-                let v = outside(p, y[j], lo[j], hi[j]);
-                counts[j] += v as u64;
-                n += v as u32;
-                nan |= p.is_nan();
-            }
-        } else {
-            for j in 0..b.len() {
-                let p = m.get(i, j).to_f64();
-                let v = outside(p, b.measured[j], b.low[j], b.high[j]);
-                tally.per_sensor[j] += v as u64;
-                n += v as u32;
-                nan |= p.is_nan();
-            }
+/// Sensors tested together: fixed-width lanes that LLVM turns into SIMD.
+const LANES: usize = 8;
+
+/// Rejecting-sensor count and NaN flag of one contiguous row; adds each
+/// sensor's rejection to `counts`. Branch-free over fixed-width lanes (exact
+/// chunks, so no bounds checks) so that it vectorises.
+#[inline(always)]
+fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool) {
+    let k = row.len();
+    let (y, lo, hi, counts) = (&b.measured[..k], &b.low[..k], &b.high[..k], &mut counts[..k]);
+    let mut n = [0u64; LANES];
+    let mut nan = [0u64; LANES];
+    let lanes = row
+        .chunks_exact(LANES)
+        .zip(y.chunks_exact(LANES))
+        .zip(lo.chunks_exact(LANES).zip(hi.chunks_exact(LANES)))
+        .zip(counts.chunks_exact_mut(LANES));
+    for (((p, y), (lo, hi)), c) in lanes {
+        for l in 0..LANES {
+            let p = p[l].to_f64();
+            let v = outside(p, y[l], lo[l], hi[l]) as u64;
+            c[l] += v;
+            n[l] += v;
+            nan[l] |= p.is_nan() as u64;
         }
+    }
+    let whole = k - k % LANES;
+    for j in whole..k {
+        let p = row[j].to_f64();
+        let v = outside(p, y[j], lo[j], hi[j]) as u64;
+        counts[j] += v;
+        n[0] += v;
+        nan[0] |= p.is_nan() as u64;
+    }
+    (n.iter().sum::<u64>() as u32, nan.iter().any(|&x| x != 0))
+}
+
+/// True if any sensor of a contiguous row rejects it; exits at the first
+/// lane group holding a rejection.
+#[inline(always)]
+fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
+    let k = row.len();
+    let (y, lo, hi) = (&b.measured[..k], &b.low[..k], &b.high[..k]);
+    let lanes = row
+        .chunks_exact(LANES)
+        .zip(y.chunks_exact(LANES))
+        .zip(lo.chunks_exact(LANES).zip(hi.chunks_exact(LANES)));
+    for ((p, y), (lo, hi)) in lanes {
+        let mut any = false;
+        for l in 0..LANES {
+            any |= outside(p[l].to_f64(), y[l], lo[l], hi[l]);
+        }
+        if any {
+            return true;
+        }
+    }
+    let whole = k - k % LANES;
+    (whole..k).any(|j| outside(row[j].to_f64(), y[j], lo[j], hi[j]))
+}
+
+/// Row test of the vector kernels, finished with the portable loop for the
+/// last `k % 4` sensors.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn diagnose_row_avx2<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool) {
+    // SAFETY: AVX2 is enabled here; `b` and `counts` have one entry per sensor.
+    let (mut n, mut nan, done) = unsafe { simd::diagnose_row(row, b, counts) };
+    for j in done..row.len() {
+        let p = row[j].to_f64();
+        let v = outside(p, b.measured[j], b.low[j], b.high[j]);
+        counts[j] += v as u64;
+        n += v as u32;
+        nan |= p.is_nan();
+    }
+    (n, nan)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn row_rejected_avx2<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
+    // SAFETY: AVX2 is enabled here; `b` has one entry per sensor.
+    let (rejected, done) = unsafe { simd::row_rejected(row, b) };
+    rejected || (done..row.len()).any(|j| outside(row[j].to_f64(), b.measured[j], b.low[j], b.high[j]))
+}
+
+#[inline(always)]
+fn diagnose_impl<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    tally: &mut Tally,
+    row_kernel: impl Fn(&[T], &SensorBounds, &mut [u64]) -> (u32, bool),
+) {
+    for (i, n_out) in out.iter_mut().enumerate() {
+        let (n, nan) = match m.row_slice(i) {
+            Some(row) => row_kernel(row, b, &mut tally.per_sensor),
+            None => {
+                let (mut n, mut nan) = (0u32, false);
+                for j in 0..b.len() {
+                    let p = m.get(i, j).to_f64();
+                    let v = outside(p, b.measured[j], b.low[j], b.high[j]);
+                    tally.per_sensor[j] += v as u64;
+                    n += v as u32;
+                    nan |= p.is_nan();
+                }
+                (n, nan)
+            }
+        };
         if n == 1 {
             // Rare enough to afford a second look at the row to find which one.
             let j = (0..b.len())
@@ -146,23 +238,133 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
     }
 }
 
-/// Writes 0 for candidates and 1 for falsified instances, stopping at the
-/// first rejecting sensor of each row. `b` may be in any visiting order.
-pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32]) {
-    debug_assert_eq!(out.len(), m.rows());
-    let sensors = || b.column.iter().zip(&b.measured).zip(b.low.iter().zip(&b.high));
+#[inline(always)]
+fn screen_impl<T: Prediction>(
+    m: Matrix<'_, T>,
+    plan: &ScreenPlan,
+    out: &mut [u32],
+    row_kernel: impl Fn(&[T], &SensorBounds) -> bool,
+) {
+    let first = &plan.first;
+    let first_rejects = |get: &dyn Fn(usize) -> f64| {
+        first.column.iter().zip(&first.measured).zip(first.low.iter().zip(&first.high))
+            .any(|((&j, &y), (&lo, &hi))| outside(get(j), y, lo, hi))
+    };
     for (i, flag) in out.iter_mut().enumerate() {
-        let candidate = match m.row_slice(i) {
-            Some(row) => sensors().all(|((&j, &y), (&lo, &hi))| !outside(row[j].to_f64(), y, lo, hi)),
-            None => sensors().all(|((&j, &y), (&lo, &hi))| !outside(m.get(i, j).to_f64(), y, lo, hi)),
+        let rejected = match m.row_slice(i) {
+            Some(row) => first_rejects(&|j| row[j].to_f64()) || row_kernel(row, &plan.all),
+            None => {
+                first_rejects(&|j| m.get(i, j).to_f64())
+                    || (0..plan.all.len()).any(|j| {
+                        outside(m.get(i, j).to_f64(), plan.all.measured[j], plan.all.low[j], plan.all.high[j])
+                    })
+            }
         };
-        *flag = (!candidate) as u32;
+        *flag = rejected as u32;
     }
+}
+
+/// Visiting plan for screening: the sensors that reject most are tried first,
+/// one by one; survivors then get a full vectorised pass in column order.
+#[derive(Debug, Clone)]
+pub struct ScreenPlan {
+    first: SensorBounds,
+    all: SensorBounds,
+}
+
+impl ScreenPlan {
+    /// Sensors tried one by one before the vectorised pass.
+    const FIRST: usize = 4;
+
+    /// `rejections[j]`: instances sensor j rejected in a sample of instances.
+    pub fn new(bounds: &SensorBounds, rejections: &[u64]) -> Self {
+        let mut order: Vec<usize> = (0..bounds.len()).collect();
+        order.sort_by_key(|&j| std::cmp::Reverse(rejections[j]));
+        order.truncate(Self::FIRST.min(order.len()));
+        ScreenPlan { first: bounds.reordered(&order), all: bounds.clone() }
+    }
+}
+
+// The kernels are compiled twice: for the baseline target and with AVX2, chosen
+// at run time, so one wheel is fast on new CPUs and still runs on old ones.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn diagnose_avx2<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
+    diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row_avx2(row, b, counts))
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn screen_avx2<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
+    screen_impl(m, plan, out, |row, b| row_rejected_avx2(row, b))
+}
+
+/// The portable kernels, for checking the vector ones against.
+pub fn diagnose_portable<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
+    diagnose_impl(m, b, out, tally, diagnose_row)
+}
+
+pub fn screen_portable<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
+    screen_impl(m, plan, out, row_rejected)
+}
+
+/// Writes the number of rejecting sensors of each row of `m` into `out` and
+/// adds the per-sensor counts to `tally`. `b` must be in column order.
+pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
+    debug_assert_eq!(out.len(), m.rows());
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { diagnose_avx2(m, b, out, tally) };
+    }
+    diagnose_impl(m, b, out, tally, diagnose_row)
+}
+
+/// Writes 0 for candidates and 1 for falsified instances, stopping early in
+/// each row once a sensor rejects it.
+pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
+    debug_assert_eq!(out.len(), m.rows());
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        return unsafe { screen_avx2(m, plan, out) };
+    }
+    screen_impl(m, plan, out, row_rejected)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Vector and portable kernels agree for every row width (lane remainders),
+    /// with ties on the bounds, NaN and infinities.
+    #[test]
+    fn vector_kernels_match_portable_ones() {
+        let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
+        for k in 1..=21 {
+            let b = SensorBounds::new(&vec![0.25; k], &vec![-0.25; k], &vec![0.75; k]);
+            let rows = 64;
+            let data: Vec<f64> = (0..rows * k).map(|i| specials[(i * 7 + i / 5) % specials.len()]).collect();
+            let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+            let m = Matrix::row_major(&data, rows, k).unwrap();
+            let m32 = Matrix::row_major(&data32, rows, k).unwrap();
+            let plan = ScreenPlan::new(&b, &vec![1; k]);
+            let (mut a, mut c) = (vec![0u32; rows], vec![0u32; rows]);
+            let (mut ta, mut tc) = (Tally::zeros(k), Tally::zeros(k));
+            diagnose(m, &b, &mut a, &mut ta);
+            diagnose_portable(m, &b, &mut c, &mut tc);
+            assert_eq!((&a, &ta), (&c, &tc), "f64 diagnose, {k} sensors");
+            diagnose(m32, &b, &mut a, &mut ta);
+            diagnose_portable(m32, &b, &mut c, &mut tc);
+            assert_eq!((&a, &ta), (&c, &tc), "f32 diagnose, {k} sensors");
+            screen(m, &plan, &mut a);
+            screen_portable(m, &plan, &mut c);
+            assert_eq!(a, c, "screen, {k} sensors");
+            let flags: Vec<u32> = (0..rows).map(|i| (c[i] > 0) as u32).collect();
+            diagnose_portable(m, &b, &mut c, &mut Tally::zeros(k));
+            assert_eq!(flags, c.iter().map(|&n| (n > 0) as u32).collect::<Vec<_>>());
+        }
+    }
 
     #[test]
     fn bounds_are_inclusive_and_nan_is_outside() {
@@ -178,7 +380,7 @@ mod tests {
         assert_eq!(t.only_by, vec![2, 0]);
         assert_eq!(t.invalid, 1);
         let mut flags = [9u32; 4];
-        screen(m, &b.reordered(&[1, 0]), &mut flags);
+        screen(m, &ScreenPlan::new(&b, &[0, 5]), &mut flags);
         assert_eq!(flags, [0, 1, 1, 1]);
     }
 

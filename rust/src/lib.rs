@@ -14,6 +14,8 @@ pub mod error;
 pub mod falsifier;
 pub mod kernel;
 pub mod matrix;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 pub mod thresholds;
 
 pub use error::{EdmfError, Result};

@@ -1,0 +1,134 @@
+"""Bad input raises ValueError/TypeError naming the argument and what was
+expected; no Rust panic ever reaches Python."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import edmf_rs
+
+T2 = edmf_rs.Thresholds([-1.0, -1.0], [1.0, 1.0])
+Y2 = np.array([0.0, 0.0])
+
+
+@pytest.mark.parametrize(
+    "predictions, error, match",
+    [
+        (np.zeros((4, 3)), ValueError, r"predictions: expected 2 columns"),
+        (np.zeros(4), ValueError, r"predictions: expected a 2-D array"),
+        (np.zeros((2, 2, 2)), ValueError, r"predictions: expected a 2-D array"),
+        (np.array([["a", "b"]]), TypeError, r"predictions: expected a numeric"),
+        (np.zeros((2, 2), dtype=object), TypeError, r"predictions: expected a numeric"),
+        (np.zeros((2, 2), dtype=complex), TypeError, r"predictions: expected a numeric"),
+        (42, TypeError, r"predictions: expected a 2-D array, a path"),
+        ([np.zeros((3, 2)), np.zeros((3, 4))], ValueError, r"chunk 1 has 4 columns, expected 2 like the first"),
+        ([np.zeros((3, 2)), np.zeros(3)], ValueError, r"chunk 1\).*2-D"),
+    ],
+)
+def test_bad_predictions(predictions, error, match):
+    with pytest.raises(error, match=match):
+        edmf_rs.falsify(predictions, Y2, T2)
+
+
+@pytest.mark.parametrize(
+    "measurements, match",
+    [
+        ([0.0, np.nan], r"measurements: expected finite values, got nan at sensor 1"),
+        ([np.inf, 0.0], r"measurements: expected finite values"),
+        ([0.0], r"measurements: expected 2 values"),
+        ([], r"measurements: expected at least one sensor"),
+    ],
+)
+def test_bad_measurements(measurements, match):
+    with pytest.raises(ValueError, match=match):
+        edmf_rs.falsify(np.zeros((3, 2)), measurements, T2)
+
+
+def test_bad_thresholds():
+    with pytest.raises(ValueError, match=r"low: expected low <= high, got low=2.0 > high=1.0 at sensor 1"):
+        edmf_rs.Thresholds([0.0, 2.0], [1.0, 1.0])
+    with pytest.raises(ValueError, match=r"low: expected finite values"):
+        edmf_rs.Thresholds([np.nan], [1.0])
+    with pytest.raises(ValueError, match=r"high: expected finite values"):
+        edmf_rs.Thresholds([0.0], [np.inf])
+    with pytest.raises(ValueError, match=r"high: expected 1 values"):
+        edmf_rs.Thresholds([0.0], [1.0, 2.0])
+    with pytest.raises(ValueError, match=r"low: expected at least one sensor"):
+        edmf_rs.Thresholds([], [])
+    with pytest.raises(TypeError, match=r"thresholds: expected edmf_rs.Thresholds"):
+        edmf_rs.falsify(np.zeros((3, 2)), Y2, ([-1, -1], [1, 1]))
+
+
+@pytest.mark.parametrize("phi", [0.0, 1.0, -0.5, 1.5, np.nan])
+def test_phi_outside_the_unit_interval(phi):
+    with pytest.raises(ValueError, match=r"phi: expected a value in \(0, 1\)"):
+        edmf_rs.threshold_bounds(np.zeros((100, 2)), phi=phi)
+
+
+def test_phi_must_be_a_number():
+    with pytest.raises(TypeError, match="phi"):
+        edmf_rs.threshold_bounds(np.zeros((100, 2)), phi="0.95")
+
+
+def test_unknown_correction():
+    with pytest.raises(ValueError, match=r"correction: expected one of 'sidak', 'bonferroni', 'none', got 'holm'"):
+        edmf_rs.threshold_bounds(np.zeros((100, 2)), correction="holm")
+
+
+def test_too_few_samples_says_how_many():
+    # p = 0.95**(1/10) = 0.99488..., so 1/(1-p) = 195.5: 196 samples are needed.
+    with pytest.raises(ValueError, match=r"at least 196 samples are needed"):
+        edmf_rs.threshold_bounds(np.random.default_rng(0).normal(size=(150, 10)), phi=0.95)
+
+
+@pytest.mark.parametrize(
+    "combined, error, match",
+    [
+        (np.zeros((100, 0)), ValueError, r"combined: expected at least one sensor"),
+        (np.zeros(100), ValueError, r"combined: expected samples of shape"),
+        (np.full((100, 1), np.nan), ValueError, r"combined: finite samples"),
+        ("normal", TypeError, r"combined: expected"),
+        ([stats.norm(), "x"], TypeError, r"combined: expected every element"),
+        (stats.norm(np.zeros((2, 2))), ValueError, r"combined: expected a distribution vectorised"),
+    ],
+)
+def test_bad_combined(combined, error, match):
+    with pytest.raises(error, match=match):
+        edmf_rs.threshold_bounds(combined, phi=0.5)
+
+
+def test_bad_uncertainty_sources():
+    with pytest.raises(TypeError, match=r"model\[0\]: expected frozen scipy.stats"):
+        edmf_rs.combine(model=[1.0])
+    with pytest.raises(ValueError, match="disagree on the number of sensors"):
+        edmf_rs.combine(model=stats.norm(np.zeros(3)), measurement=stats.norm(np.zeros(2)))
+    with pytest.raises(ValueError, match="n_sensors"):
+        edmf_rs.combine(model=stats.norm(0, 1))
+    with pytest.raises(ValueError, match="at least one uncertainty source"):
+        edmf_rs.combine()
+    with pytest.raises(ValueError, match="n_samples"):
+        edmf_rs.combine(model=stats.uniform(0, 1), n_sensors=2, n_samples=0)
+
+
+def test_bad_thread_count():
+    with pytest.raises(ValueError, match="n: expected a positive number of threads"):
+        edmf_rs.set_num_threads(0)
+
+
+def test_core_rejects_what_the_python_layer_would_have_caught():
+    # Defence in depth: the extension itself refuses inconsistent arguments.
+    from edmf_rs import _core
+
+    with pytest.raises(ValueError, match="measurements"):
+        _core.Falsifier(np.zeros(3), np.zeros(2), np.ones(2))
+    with pytest.raises(ValueError, match="thresholds"):
+        _core.Falsifier(np.zeros(2), np.ones(2), np.zeros(2))
+    acc = _core.Falsifier(np.zeros(2), -np.ones(2), np.ones(2))
+    with pytest.raises(ValueError, match="width 3"):
+        acc.update(np.zeros((4, 3)))
+    with pytest.raises(TypeError, match="float64 or float32"):
+        acc.update(np.zeros((4, 2), dtype=np.int64))
+    with pytest.raises(ValueError, match="probability"):
+        _core.shortest_intervals(np.zeros((10, 1)), 1.0)
+    with pytest.raises(ValueError, match="covariance"):
+        _core.mahalanobis_squared(np.zeros((1, 2)), np.zeros(2), np.array([[1.0, 2.0], [2.0, 1.0]]))

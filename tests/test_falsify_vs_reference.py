@@ -1,0 +1,135 @@
+"""The Rust falsification kernel against the plain NumPy reference (Eq. 8),
+on broadly generated inputs: dtypes, memory layouts, chunkings, thread counts,
+residuals lying exactly on a bound, and NaN predictions."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import edmf_rs
+from edmf_rs import reference
+
+FIELDS = ("n_instances", "n_invalid")
+ARRAYS = ("candidate_indices", "per_sensor_falsified", "falsified_only_by", "n_violated")
+
+
+def assert_same(result, expected):
+    for f in FIELDS:
+        assert getattr(result, f) == getattr(expected, f), f
+    for f in ARRAYS:
+        np.testing.assert_array_equal(getattr(result, f), getattr(expected, f), err_msg=f)
+    np.testing.assert_array_equal(result.candidate_mask, expected.candidate_mask)
+    assert result.model_class_falsified == (expected.candidate_indices.size == 0)
+
+
+@st.composite
+def problems(draw):
+    n = draw(st.integers(0, 300))
+    n_m = draw(st.integers(1, 7))
+    dtype = draw(st.sampled_from([np.float64, np.float32]))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    y = rng.normal(0.0, 1.0, n_m)
+    # Coarse values make exact ties frequent; bounds are taken from actual residuals.
+    grid = draw(st.sampled_from([None, 0.25]))
+    base = rng.normal(0.0, 1.0, (n, n_m)) + y
+    if grid:
+        base = np.round(base / grid) * grid
+    predictions = base.astype(dtype)
+    residuals = predictions.astype(np.float64) - y
+    low = rng.uniform(-1.5, -0.2, n_m)
+    high = rng.uniform(0.2, 1.5, n_m)
+    if n and draw(st.booleans()):  # put bounds exactly on some residuals
+        rows = rng.integers(0, n, size=2)
+        low = np.minimum(residuals[rows[0]], residuals[rows[1]])
+        high = np.maximum(residuals[rows[0]], residuals[rows[1]])
+    if n and draw(st.booleans()):
+        predictions[rng.integers(0, n, size=3), rng.integers(0, n_m, size=3)] = np.nan
+    layout = draw(st.sampled_from(["C", "F", "strided", "reversed"]))
+    if layout == "F":
+        predictions = np.asfortranarray(predictions)
+    elif layout == "strided":
+        wide = np.zeros((2 * n, 3 * n_m), dtype=dtype)
+        wide[::2, ::3] = predictions
+        predictions = wide[::2, ::3]
+    elif layout == "reversed":
+        predictions = predictions[::-1][::-1, ::-1][:, ::-1]
+    thresholds = edmf_rs.Thresholds(low, high)
+    return predictions, y, thresholds
+
+
+@given(problem=problems(), threads=st.sampled_from([1, 2]), chunk_rows=st.one_of(st.none(), st.integers(1, 97)))
+def test_falsify_matches_reference(problem, threads, chunk_rows):
+    predictions, y, thresholds = problem
+    edmf_rs.set_num_threads(threads)
+    try:
+        result = edmf_rs.falsify(predictions, y, thresholds, chunk_rows=chunk_rows)
+    finally:
+        edmf_rs.set_num_threads(2)
+    assert_same(result, reference.falsify(predictions, y, thresholds))
+
+
+@given(problem=problems(), splits=st.lists(st.integers(0, 300), max_size=5))
+def test_streamed_chunks_match_reference(problem, splits):
+    predictions, y, thresholds = problem
+    cuts = sorted({min(s, predictions.shape[0]) for s in splits})
+    chunks = np.split(predictions, cuts)
+    result = edmf_rs.falsify(iter(chunks), y, thresholds)
+    assert_same(result, reference.falsify(predictions, y, thresholds))
+
+
+@given(problem=problems())
+def test_screening_gives_the_same_candidates(problem):
+    predictions, y, thresholds = problem
+    result = edmf_rs.falsify(predictions, y, thresholds, diagnostics=False)
+    np.testing.assert_array_equal(result.candidate_indices,
+                                  reference.falsify(predictions, y, thresholds).candidate_indices)
+    assert result.per_sensor_falsified is None and result.n_violated is None
+
+
+def test_npy_file_matches_in_memory(tmp_path):
+    rng = np.random.default_rng(7)
+    y = rng.normal(size=5)
+    thresholds = edmf_rs.Thresholds(np.full(5, -1.0), np.full(5, 1.0))
+    for order, dtype in (("C", np.float64), ("F", np.float32), ("C", ">f8"), ("C", np.int16)):
+        predictions = np.asarray(rng.normal(size=(5000, 5)) + y, order=order).astype(dtype)
+        path = tmp_path / f"p-{order}-{np.dtype(dtype).str}.npy"
+        np.save(path, predictions)
+        result = edmf_rs.falsify(path, y, thresholds, chunk_rows=333)
+        expected = reference.falsify(predictions, y, thresholds)
+        np.testing.assert_array_equal(result.candidate_indices, expected.candidate_indices)
+        np.testing.assert_array_equal(result.per_sensor_falsified, expected.per_sensor_falsified)
+        assert result.n_violated is None  # files do not keep an N-long array by default
+
+
+def test_zero_instances_give_an_empty_result():
+    thresholds = edmf_rs.Thresholds([-1.0, -1.0], [1.0, 1.0])
+    result = edmf_rs.falsify(np.empty((0, 2)), [0.0, 0.0], thresholds)
+    assert result.n_instances == 0 and result.n_candidates == 0
+    assert result.model_class_falsified
+    assert result.candidate_mask.shape == (0,)
+    assert "0 model instances" in result.summary()
+
+
+def test_leave_one_sensor_out_counts():
+    # Sensor 1 alone rejects instance 0; instance 1 is rejected by both; 2 is a candidate.
+    p = np.array([[0.0, 5.0], [5.0, 5.0], [0.0, 0.0]])
+    r = edmf_rs.falsify(p, [0.0, 0.0], edmf_rs.Thresholds([-1.0, -1.0], [1.0, 1.0]))
+    np.testing.assert_array_equal(r.per_sensor_falsified, [1, 2])
+    np.testing.assert_array_equal(r.candidates_without_sensor, [1, 2])
+    np.testing.assert_array_equal(r.n_violated, [1, 2, 0])
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_large_run_is_deterministic_across_threads(threads):
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(300_000, 12)).astype(np.float32)
+    thresholds = edmf_rs.Thresholds(np.full(12, -2.5), np.full(12, 2.5))
+    edmf_rs.set_num_threads(threads)
+    try:
+        r = edmf_rs.falsify(p, np.zeros(12), thresholds)
+    finally:
+        edmf_rs.set_num_threads(2)
+    expected = reference.falsify(p, np.zeros(12), thresholds)
+    assert_same(r, expected)

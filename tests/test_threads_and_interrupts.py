@@ -1,0 +1,56 @@
+"""The dedicated thread pool, its environment variable, and Ctrl-C."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import edmf_rs
+
+
+def run_python(code: str, env: dict | None = None, **kw) -> subprocess.CompletedProcess:
+    full_env = {**os.environ, **(env or {})}
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=full_env,
+                          capture_output=True, text=True, timeout=120, **kw)
+
+
+def test_set_num_threads_round_trips():
+    edmf_rs.set_num_threads(1)
+    assert edmf_rs.get_num_threads() == 1
+    edmf_rs.set_num_threads(2)
+    assert edmf_rs.get_num_threads() == 2
+
+
+def test_environment_variable_sets_the_pool():
+    out = run_python("import edmf_rs; print(edmf_rs.get_num_threads())", env={"EDMF_RS_NUM_THREADS": "3"})
+    assert out.stdout.strip() == "3", out.stderr
+    bad = run_python("import edmf_rs; edmf_rs.get_num_threads()", env={"EDMF_RS_NUM_THREADS": "many"})
+    assert bad.returncode != 0 and "EDMF_RS_NUM_THREADS: expected a positive integer" in bad.stderr
+
+
+def test_ctrl_c_interrupts_a_long_falsification():
+    # One huge call into Rust (zero pages: no real memory), interrupted mid-way.
+    code = """
+        import sys, numpy as np, edmf_rs
+        p = np.zeros((150_000_000, 20), dtype=np.float32)
+        t = edmf_rs.Thresholds(np.ones(20), np.ones(20) * 2)
+        print("started", flush=True)
+        try:
+            for _ in range(100):
+                edmf_rs.falsify(p, np.zeros(20), t, diagnostics=False)
+        except KeyboardInterrupt:
+            print("interrupted", flush=True)
+            sys.exit(3)
+        print("finished", flush=True)
+    """
+    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "started"
+    import time
+
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)  # a hang fails here
+    assert proc.returncode == 3, (out, err)
+    assert "interrupted" in out
