@@ -14,6 +14,9 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use views::matrix_view;
 
+/// A NumPy vector handed back to Python.
+type Vector<'py, T> = Bound<'py, PyArray1<T>>;
+
 /// Runs `work` with the GIL released; `work` gets a stop check that re-attaches
 /// briefly to let Python run its signal handlers (Ctrl-C -> KeyboardInterrupt).
 fn detached<R: Send>(
@@ -49,7 +52,7 @@ fn shortest_intervals<'py>(
     py: Python<'py>,
     samples: PyReadonlyArray2<'py, f64>,
     probability: f64,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<(Vector<'py, f64>, Vector<'py, f64>)> {
     let view = matrix_view(&samples, "combined")?;
     let pool = pool::current()?;
     let thresholds =
@@ -73,7 +76,7 @@ fn mahalanobis_squared<'py>(
     points: PyReadonlyArray2<'py, f64>,
     mean: PyReadonlyArray1<'py, f64>,
     covariance: PyReadonlyArray2<'py, f64>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
+) -> PyResult<Vector<'py, f64>> {
     let view = matrix_view(&points, "points")?;
     let mean = mean.as_slice()?.to_vec();
     let cov: Vec<f64> = covariance.as_array().iter().copied().collect();
@@ -141,7 +144,7 @@ impl Falsifier {
 
     /// Candidate indices from position `start` of the candidate list on.
     #[pyo3(signature = (start=0))]
-    fn candidates<'py>(&self, py: Python<'py>, start: usize) -> Bound<'py, PyArray1<u64>> {
+    fn candidates<'py>(&self, py: Python<'py>, start: usize) -> Vector<'py, u64> {
         let all = self.inner.candidates();
         all[start.min(all.len())..].to_vec().into_pyarray(py)
     }
@@ -150,14 +153,14 @@ impl Falsifier {
     fn tally<'py>(
         &self,
         py: Python<'py>,
-    ) -> Option<(Bound<'py, PyArray1<u64>>, Bound<'py, PyArray1<u64>>, u64)> {
+    ) -> Option<(Vector<'py, u64>, Vector<'py, u64>, u64)> {
         self.inner.tally().map(|t| {
             (t.per_sensor.clone().into_pyarray(py), t.only_by.clone().into_pyarray(py), t.invalid)
         })
     }
 
     /// The per-instance rejecting-sensor counts (moved out, not copied), if kept.
-    fn take_violations<'py>(&mut self, py: Python<'py>) -> Option<Bound<'py, PyArray1<u32>>> {
+    fn take_violations<'py>(&mut self, py: Python<'py>) -> Option<Vector<'py, u32>> {
         self.inner.take_violations().map(|v| v.into_pyarray(py))
     }
 }
