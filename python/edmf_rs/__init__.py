@@ -24,11 +24,15 @@ __all__ = [
     "CoverageResult",
     "LeastSquaresResult",
     "PosteriorResult",
+    "Prognosis",
+    "Project",
+    "ProjectError",
     "baselines",
     "bayesian_posterior",
     "coverage",
     "examples",
     "least_squares",
+    "predict",
     "FalsificationResult",
     "Thresholds",
     "combine",
@@ -43,3 +47,15 @@ __all__ = [
     "threshold_bounds",
 ]
 __version__ = "0.1.0"
+
+# Project runs need pandas; import them on first use so `import edmf_rs` stays light.
+_LAZY = {"Project": "project", "ProjectError": "project", "Prognosis": "prognosis", "predict": "prognosis"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module 'edmf_rs' has no attribute {name!r}")
+

@@ -1,0 +1,237 @@
+"""The figures of an identification, as PNG bytes (matplotlib, no pyplot state).
+
+Falsified instances are not kept by the falsification, so they are drawn from
+the run's deterministic sample of every k-th instance; candidates are drawn
+all, or an evenly spaced subset of them when there are many.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+CANDIDATE = "#1f6fb4"
+FALSIFIED = "#b0b0b0"
+ALERT = "#c0392b"
+MAX_CANDIDATES = 2000
+
+
+def figures(ident) -> dict[str, bytes]:
+    """Every figure of the report, by file stem."""
+    return {
+        "leave_one_out": _png(leave_one_out(ident)),
+        "residuals": _png(residuals(ident)),
+        "scatter_matrix": _png(scatter_matrix(ident)),
+        "parallel_coordinates": _png(parallel_coordinates(ident)),
+        "sensitivity": _png(sensitivity(ident)),
+    }
+
+
+def _png(fig: Figure) -> bytes:
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, metadata={"Software": None})
+    return buf.getvalue()
+
+
+def _evenly(n: int, limit: int) -> np.ndarray:
+    """Up to ``limit`` evenly spaced indices of n rows (deterministic)."""
+    return np.arange(n) if n <= limit else np.unique(np.linspace(0, n - 1, limit).round().astype(int))
+
+
+def _candidates(ident) -> tuple[np.ndarray, np.ndarray]:
+    r = ident.falsification
+    keep = _evenly(r.n_candidates, MAX_CANDIDATES)
+    return r.candidate_parameters[keep], r.candidate_predictions[keep]
+
+
+def _falsified(ident) -> tuple[np.ndarray, np.ndarray]:
+    s = ident.sample
+    return s.parameters[~s.is_candidate], s.predictions[~s.is_candidate]
+
+
+def _sensor_labels(ax, names, axis="x") -> None:
+    ticks = np.arange(len(names))
+    rotation = 60 if len(names) > 8 else 0
+    if axis == "x":
+        ax.set_xticks(ticks, names, rotation=rotation, ha="right" if rotation else "center", fontsize=8)
+        ax.set_xlim(-0.6, len(names) - 0.4)
+
+
+def leave_one_out(ident) -> Figure:
+    loo = ident.leave_one_out
+    n = len(loo.sensors)
+    fig = Figure(figsize=(max(6.0, 0.55 * n + 2), 5.2), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    x = np.arange(n)
+    colours = [ALERT if i in loo.suspects else CANDIDATE for i in range(n)]
+    top.bar(x, loo.candidates_without_sensor, color=colours)
+    top.axhline(loo.n_candidates, color="k", ls="--", lw=1, label=f"all sensors: {loo.n_candidates:,}")
+    top.set_ylabel("candidates without\nthis sensor")
+    top.legend(loc="upper right", fontsize=8)
+    top.set_title("Leave one sensor out (red: this sensor alone falsifies the model class)", fontsize=10)
+    share = 100.0 * loo.per_sensor_falsified / max(loo.n_instances, 1)
+    bottom.bar(x, share, color=FALSIFIED, label="falsified by this sensor")
+    bottom.bar(x, 100.0 * loo.falsified_only_by / max(loo.n_instances, 1), color="#555555",
+               label="... and by no other")
+    bottom.set_ylabel("% of instances")
+    bottom.legend(loc="upper right", fontsize=8)
+    _sensor_labels(bottom, loo.sensors)
+    return fig
+
+
+def residuals(ident) -> Figure:
+    """Residuals g - y scaled to the thresholds: (r - c) / h, so each sensor's thresholds are at -1 and +1."""
+    t, y = ident.thresholds, ident.falsification.measurements
+    c, h = 0.5 * (t.low + t.high), 0.5 * (t.high - t.low)
+    names = ident.project.sensor_names
+    n = len(names)
+    fig = Figure(figsize=(max(6.0, 0.55 * n + 2), 4.5), layout="constrained")
+    ax = fig.subplots()
+    ax.axhspan(-1, 1, color="#d9ead3", label="threshold bounds")
+    rng = np.random.default_rng(0)  # jitter only; fixed for reproducible figures
+    _, false_pred = _falsified(ident)
+    if false_pred.shape[0]:
+        z = (false_pred - y - c) / h
+        xs = np.arange(n) + rng.uniform(-0.25, 0.25, z.shape)
+        ax.plot(xs.ravel(), z.ravel(), ".", ms=2, color=FALSIFIED, label="falsified (sample)")
+    _, cand_pred = _candidates(ident)
+    if cand_pred.shape[0]:
+        z = (cand_pred - y - c) / h
+        xs = np.arange(n) + rng.uniform(-0.15, 0.15, z.shape)
+        ax.plot(xs.ravel(), z.ravel(), ".", ms=3, color=CANDIDATE, label="candidates")
+    elif ident.sensitivity.closest_predictions is not None:
+        z = (ident.sensitivity.closest_predictions - y - c) / h
+        ax.plot(np.arange(n), z, "o-", color=ALERT, ms=5, label="closest instance")
+    if max(abs(v) for v in ax.get_ylim()) > 8.0:
+        ax.set_yscale("symlog", linthresh=2.0)  # far-off falsified instances stay visible
+    ax.set_ylabel("(g - y - c) / h   (thresholds at ±1)")
+    ax.set_title("Residuals against the threshold bounds, per sensor", fontsize=10)
+    fig.legend(loc="outside right upper", fontsize=8)
+    _sensor_labels(ax, names)
+    return fig
+
+
+def _axis(ax, param, which: str) -> None:
+    label = f"{param.name} [{param.unit}]" if param.unit else param.name
+    getattr(ax, f"set_{which}label")(label, fontsize=9)
+    getattr(ax, f"set_{which}scale")("log" if param.scale == "log" else "linear")
+    getattr(ax, f"set_{which}lim")(param.low, param.high)
+    if param.scale == "linear":
+        getattr(ax, f"{which}axis").set_major_locator(MaxNLocator(4))
+
+
+def _bins(values: np.ndarray, param) -> np.ndarray:
+    """Histogram edges: one bin per value of a grid (no empty bins between grid values), else 30."""
+    unique = np.unique(values)
+    if 1 < unique.size <= 120:
+        x = param.to_unit(unique)
+        edges = np.concatenate([[x[0] - (x[1] - x[0]) / 2], (x[1:] + x[:-1]) / 2, [x[-1] + (x[-1] - x[-2]) / 2]])
+        return param.from_unit(np.clip(edges, 0.0, 1.0))
+    return param.from_unit(np.linspace(0.0, 1.0, 31))
+
+
+def scatter_matrix(ident) -> Figure:
+    """Candidates over falsified instances, for every pair of parameters (lower triangle)."""
+    params = ident.project.parameters
+    p = len(params)
+    size = max(4.5, 2.4 * p)
+    fig = Figure(figsize=(size, size * (0.75 if p == 1 else 1.0)), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(p, p, squeeze=False))
+    cand, _ = _candidates(ident)
+    false_theta, _ = _falsified(ident)
+    closest = ident.sensitivity.closest_parameters if ident.falsification.n_candidates == 0 else None
+    for i in range(p):
+        for j in range(p):
+            ax = axes[i, j]
+            if j > i:
+                ax.set_visible(False)
+                continue
+            if i == j:
+                param = params[i]
+                bins = _bins(ident.sample.parameters[:, i], param)
+                ax.hist(ident.sample.parameters[:, i], bins=bins, color=FALSIFIED, label="instances (sample)")
+                if cand.shape[0]:
+                    ax.hist(cand[:, i], bins=bins, color=CANDIDATE, label="candidates")
+                if closest is not None:
+                    ax.axvline(closest[i], color=ALERT, label="closest instance")
+                _axis(ax, param, "x")
+                ax.set_yticks([])
+                if i == 0:
+                    ax.legend(fontsize=7, loc="upper right")
+                continue
+            if false_theta.shape[0]:
+                ax.plot(false_theta[:, j], false_theta[:, i], ".", ms=2, color=FALSIFIED)
+            if cand.shape[0]:
+                ax.plot(cand[:, j], cand[:, i], ".", ms=3, color=CANDIDATE)
+            if closest is not None:
+                ax.plot(closest[j], closest[i], "*", ms=12, color=ALERT)
+            _axis(ax, params[j], "x")
+            _axis(ax, params[i], "y")
+    fig.suptitle("Candidate model set (blue) over falsified instances (grey)", fontsize=10)
+    return fig
+
+
+def parallel_coordinates(ident) -> Figure:
+    """Each candidate as a line across the parameters, each axis its domain (0: low, 1: high)."""
+    params = ident.project.parameters
+    p = len(params)
+    fig = Figure(figsize=(max(5.0, 1.8 * p + 2), 4.0), layout="constrained")
+    ax = fig.subplots()
+    x = np.arange(p)
+    style = "-" if p > 1 else "o"
+
+    def unit(theta):
+        return np.column_stack([param.to_unit(theta[:, j]) for j, param in enumerate(params)])
+
+    false_theta, _ = _falsified(ident)
+    if false_theta.shape[0]:
+        ax.plot(x, unit(false_theta[_evenly(false_theta.shape[0], 300)]).T, style, color=FALSIFIED,
+                lw=0.5, alpha=0.5)
+    cand, _ = _candidates(ident)
+    if cand.shape[0]:
+        ax.plot(x, unit(cand).T, style, color=CANDIDATE, lw=0.7, alpha=0.35)
+    elif ident.sensitivity.closest_parameters is not None:
+        ax.plot(x, unit(ident.sensitivity.closest_parameters[None, :]).T, style + ("" if p == 1 else "o"),
+                color=ALERT, lw=2, label="closest instance")
+        ax.legend(fontsize=8)
+    for k, param in enumerate(params):
+        ax.axvline(k, color="k", lw=0.8)
+        ax.annotate(f"{param.high:.3g}", (k, 1.0), xytext=(3, 2), textcoords="offset points", fontsize=7)
+        ax.annotate(f"{param.low:.3g}", (k, 0.0), xytext=(3, -9), textcoords="offset points", fontsize=7)
+    labels = [f"{q.name}" + (f" [{q.unit}]" if q.unit else "") + (" (log)" if q.scale == "log" else "")
+              for q in params]
+    ax.set_xticks(x, labels, fontsize=9)
+    ax.set_xlim(-0.3, p - 0.7 if p > 1 else 0.3)
+    ax.set_ylim(-0.08, 1.08)
+    ax.set_ylabel("position in the domain")
+    ax.set_title("Parallel coordinates: candidates (blue), falsified sample (grey)", fontsize=10)
+    return fig
+
+
+def sensitivity(ident) -> Figure:
+    s, phi = ident.sensitivity, ident.thresholds.phi
+    fig = Figure(figsize=(10.0, 3.8), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    left.plot(s.scales, s.candidates_at_scale, color=CANDIDATE)
+    left.axvline(1.0, color="k", ls="--", lw=1, label="s = 1 (as specified)")
+    if np.isfinite(s.smallest_scale) and s.scales[0] <= s.smallest_scale <= s.scales[-1]:
+        left.axvline(s.smallest_scale, color=ALERT, ls=":", lw=1.2, label=f"first candidate: s = {s.smallest_scale:.3g}")
+    left.set_xscale("log")
+    left.set_yscale("symlog", linthresh=1.0)  # counts from 0 to N: small sets stay visible
+    left.set_ylim(bottom=0)
+    left.set_xlabel("scale factor s on the spread of every uncertainty")
+    left.set_ylabel("candidate models")
+    left.legend(fontsize=8)
+    left.set_title("Candidates against the size of the uncertainties", fontsize=10)
+    right.plot(s.phis, s.candidates_at_phi, "-" if s.phi_exact else ".-", color=CANDIDATE)
+    right.axvline(phi, color="k", ls="--", lw=1, label=f"phi = {phi:g}")
+    right.set_xlabel("target identification probability phi" + ("" if s.phi_exact else " (Monte Carlo grid)"))
+    right.set_ylabel("candidate models")
+    right.legend(fontsize=8)
+    right.set_title("Candidates against phi", fontsize=10)
+    return fig
