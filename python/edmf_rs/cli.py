@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -25,10 +26,21 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--seed", type=int, default=0, help="base random seed (default: %(default)s)")
 
     run = sub.add_parser("run", help="run an identification from a project file (TOML)")
-    run.add_argument("project", help="project file, e.g. bridge.toml")
-    run.add_argument("--out", default=None, help="output folder (default: next to the project file)")
+    which = run.add_mutually_exclusive_group(required=True)
+    which.add_argument("project", nargs="?", help="project file, e.g. bridge.toml")
+    which.add_argument("--example", choices=example_names(),
+                       help="run a project shipped with edmf_rs instead of a file")
+    run.add_argument("--out", default=None,
+                     help="output folder (default: next to the project file; ./NAME for --example)")
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     return parser
+
+
+EXAMPLES = Path(__file__).resolve().parent / "examples" / "projects"
+
+
+def example_names() -> list[str]:
+    return sorted(p.stem for p in EXAMPLES.glob("*.toml"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,7 +52,11 @@ def main(argv: list[str] | None = None) -> int:
             return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed)
         from .project import run_cli
 
-        return run_cli(args.project, out=args.out, progress=not args.no_progress)
+        if args.example:
+            project, out = EXAMPLES / f"{args.example}.toml", args.out or args.example
+        else:
+            project, out = args.project, args.out
+        return run_cli(project, out=out, progress=not args.no_progress)
     except (ValueError, TypeError, OSError) as exc:
         if os.environ.get("EDMF_RS_DEBUG"):
             raise
