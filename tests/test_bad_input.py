@@ -132,3 +132,49 @@ def test_core_rejects_what_the_python_layer_would_have_caught():
         _core.shortest_intervals(np.zeros((10, 1)), 1.0)
     with pytest.raises(ValueError, match="covariance"):
         _core.mahalanobis_squared(np.zeros((1, 2)), np.zeros(2), np.array([[1.0, 2.0], [2.0, 1.0]]))
+
+
+def test_phi_so_close_to_one_that_the_sensor_probability_rounds_to_one():
+    with pytest.raises(ValueError, match="phi: .* rounds to 1"):
+        edmf_rs.threshold_bounds(stats.norm(np.zeros(50), 1.0), phi=1 - 1e-15)
+
+
+def test_sensor_probability_needs_a_positive_sensor_count():
+    with pytest.raises(ValueError, match="n_sensors"):
+        edmf_rs.sensor_probability(0.95, 0)
+    with pytest.raises(TypeError, match="n_sensors"):
+        edmf_rs.sensor_probability(0.95, True)
+
+
+def test_a_list_of_distributions_must_hold_scalar_ones():
+    with pytest.raises(ValueError, match="element 0 is vectorised"):
+        edmf_rs.threshold_bounds([stats.norm([0.0, 0.0], 1.0), stats.norm()], phi=0.9)
+
+
+def test_discrete_or_foreign_sources_are_type_errors():
+    with pytest.raises(TypeError, match="model: expected a frozen scipy.stats continuous"):
+        edmf_rs.combine(model=stats.poisson(3), n_sensors=2)
+    with pytest.raises(TypeError, match=r"model\[0\]"):
+        edmf_rs.combine(model=[stats.poisson(3)], n_sensors=2)
+
+
+def test_zero_variance_is_caught_and_a_fixed_offset_source_is_allowed():
+    with pytest.raises(ValueError, match="standard deviation is zero at sensor 0"):
+        edmf_rs.combine(model=stats.norm(0, 0), n_sensors=2)
+    # A normal with sd 0 is a known offset: it shifts U_c without widening it.
+    c = edmf_rs.combine(model=[stats.norm(0.5, 0.0)], measurement=[stats.norm(0, np.array([1.0, 2.0]))])
+    np.testing.assert_allclose(c.mean, [0.5, 0.5])
+    np.testing.assert_allclose(c.std, [1.0, 2.0])
+
+
+def test_a_flat_list_that_looks_per_sensor_warns():
+    with pytest.warns(UserWarning, match="must be nested"):
+        edmf_rs.combine(model=[stats.norm(0, 1), stats.norm(0, 2)], measurement=stats.norm(np.zeros(2), 1))
+
+
+def test_reversed_sample_arrays_are_read_correctly():
+    rng = np.random.default_rng(0)
+    samples = rng.normal(size=(500, 3))
+    t = edmf_rs.threshold_bounds(samples[::-1], phi=0.8)
+    want = edmf_rs.threshold_bounds(np.ascontiguousarray(samples[::-1]), phi=0.8)
+    np.testing.assert_array_equal(t.low, want.low)

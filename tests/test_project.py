@@ -403,3 +403,45 @@ def test_default_output_folder_is_named_after_the_project(tmp_path, capsys):
     path = write_project(tmp_path)
     assert cli.main(["run", str(path), "--no-progress"]) == 0
     assert (tmp_path / "lin" / "summary.json").is_file()
+
+
+def test_two_projects_with_same_model_module_name_use_their_own(tmp_path):
+    # Regression: Python's module cache must not hand project B the model of project A.
+    import edmf_rs
+
+    results = []
+    for k, factor in enumerate((1.0, 2.0)):
+        folder = tmp_path / f"p{k}"
+        folder.mkdir()
+        (folder / "model.py").write_text(f"def f(theta):\n    return theta[:, :1] * {factor}\n")
+        (folder / "p.toml").write_text(
+            "[parameters.a]\nlow = 0.0\nhigh = 1.0\n[sampling]\nmethod = 'grid'\npoints = { a = 11 }\n"
+            "[model]\nfunction = 'model:f'\n[[sensors]]\nname = 's'\nvalue = 0.5\n"
+            "[[uncertainty]]\nname = 'n'\nkind = 'measurement'\ndistribution = 'normal'\nsd = 0.01\n"
+        )
+        run = edmf_rs.Project.from_toml(folder / "p.toml").run(progress=False)
+        results.append(run.candidates["a"].to_numpy())
+    assert np.allclose(results[0], [0.5]) and np.allclose(results[1], [0.25])
+
+
+def test_instance_is_a_reserved_name(tmp_path):
+    import edmf_rs
+
+    (tmp_path / "p.toml").write_text(
+        "[parameters.instance]\nlow = 0.0\nhigh = 1.0\n[sampling]\nmethod = 'grid'\npoints = { instance = 3 }\n"
+        "[model]\nfunction = 'math:fabs'\n[[sensors]]\nname = 's'\nvalue = 0.5\n"
+        "[[uncertainty]]\nname = 'n'\nkind = 'measurement'\ndistribution = 'normal'\nsd = 0.01\n"
+    )
+    with pytest.raises(edmf_rs.ProjectError, match="'instance' names the index"):
+        edmf_rs.Project.from_toml(tmp_path / "p.toml")
+
+
+def test_excluding_a_sensor_leaves_the_other_monte_carlo_thresholds_unchanged():
+    import edmf_rs
+
+    full = edmf_rs.Project.from_toml(cli.EXAMPLES / "girder.toml")
+    part = edmf_rs.Project.from_toml(cli.EXAMPLES / "girder-sg5-excluded.toml")
+    a, b = full.combined_uncertainty(), part.combined_uncertainty()
+    assert not a.exact  # the girder has a uniform source: Monte Carlo
+    keep = [full.sensor_names.index(n) for n in part.sensor_names]
+    np.testing.assert_array_equal(a.samples[:, keep], b.samples)

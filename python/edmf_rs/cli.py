@@ -62,6 +62,12 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"edmf-rs: error: {exc}", file=sys.stderr)
         return 2
+    except Exception as exc:
+        notes = [n for n in getattr(exc, "__notes__", []) if "raised by the model" in n]
+        if not notes or os.environ.get("EDMF_RS_DEBUG"):
+            raise
+        print(f"edmf-rs: error: {type(exc).__name__}: {exc} ({notes[0].removeprefix('edmf_rs: ')})", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("edmf-rs: interrupted", file=sys.stderr)
         return 130

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from . import _core
 from .result import FalsificationResult
 from .thresholds import Thresholds, sensor_probability
 from .uncertainty import CombinedUncertainty
@@ -180,37 +181,33 @@ def _phi_from_tail(tail: np.ndarray, n_sensors: int, correction: str) -> np.ndar
     """phi whose per-sensor probability is 1 - tail (the inverse of sensor_probability)."""
     tail = np.minimum(tail, 1.0)
     if correction == "sidak":
-        return np.exp(n_sensors * np.log1p(-tail))  # p ** n_m, accurate for p near 1
+        with np.errstate(divide="ignore"):  # tail 1 (a residual at the centre) gives phi 0
+            return np.exp(n_sensors * np.log1p(-tail))  # p ** n_m, accurate for p near 1
     if correction == "bonferroni":
         return np.maximum(1.0 - n_sensors * tail, 0.0)
     return 1.0 - tail
 
 
 def _monte_carlo_bounds(samples: np.ndarray, phis: np.ndarray, thresholds: Thresholds):
-    """Shortest intervals of the samples at each phi (those the samples can resolve).
-
-    The samples are sorted once; at the identification's phi the thresholds
-    themselves are used so both agree exactly there.
-    """
-    x = np.sort(samples, axis=0)
-    n, n_m = x.shape
+    """Shortest intervals of the samples at each phi the samples can resolve (the
+    Rust core, in parallel over sensors). At the identification's phi the
+    thresholds themselves are used so both agree exactly there."""
+    n, n_m = samples.shape
     keep, lows, highs = [], [], []
     for phi in phis:
         if thresholds.phi is not None and phi == thresholds.phi:
-            keep.append(phi)
-            lows.append(thresholds.low)
-            highs.append(thresholds.high)
-            continue
-        p = sensor_probability(float(phi), n_m, thresholds.correction or "sidak")
-        if n < math.ceil(1.0 / (1.0 - p)):
-            continue  # too few samples for so high a probability
-        k = min(max(math.ceil(p * n), 1), n)
-        widths = x[k - 1:] - x[: n - k + 1]
-        first = np.argmin(widths, axis=0)  # lowest interval on ties, as the core does
-        cols = np.arange(n_m)
+            low, high = thresholds.low, thresholds.high
+        else:
+            try:
+                p = sensor_probability(float(phi), n_m, thresholds.correction or "sidak")
+            except ValueError:
+                continue  # phi too close to 1 for n_m sensors
+            if n < _core.min_samples(p):
+                continue  # too few samples for so high a probability
+            low, high = _core.shortest_intervals(samples, p)
         keep.append(phi)
-        lows.append(x[first, cols])
-        highs.append(x[first + k - 1, cols])
+        lows.append(low)
+        highs.append(high)
     return np.array(keep), np.array(lows), np.array(highs)
 
 
@@ -241,9 +238,11 @@ def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: floa
             violated = ", ".join(names[i] for i in sensitivity.closest_violated)
             text = (f"The closest instance (#{sensitivity.closest_instance}, which violates {violated}) becomes "
                     f"a candidate when the uncertainties are scaled by {sensitivity.smallest_scale:.3g}")
-            if math.isfinite(sensitivity.smallest_phi):
+            if math.isfinite(sensitivity.smallest_phi) and sensitivity.smallest_phi < 1.0:
                 exact = "" if sensitivity.phi_exact else " (to the grid)"
                 text += f", and some instance at phi >= {sensitivity.smallest_phi:.6g}{exact}"
+            else:
+                text += "; no phi below 1 admits any instance"
             out.append(text + ".")
         return out
     share = 100.0 * loo.n_candidates / loo.n_instances

@@ -75,6 +75,10 @@ class Project:
         if clash:
             raise ProjectError(f"{where}: sensor '{clash[0]}' has the name of a parameter; expected distinct "
                                "names (they name the columns of candidates.parquet)")
+        reserved = [n for n in [*names, *(s.name for s in all_sensors)] if n == "instance"]
+        if reserved:
+            raise ProjectError(f"{label}: 'instance' names the index of candidates.parquet; expected another "
+                               "name for that parameter or sensor")
         sensors = tuple(all_sensors[i] for i in kept)
         model_function = None
         if spec.model.function is not None:
@@ -108,7 +112,15 @@ class Project:
 
     def combined_uncertainty(self) -> CombinedUncertainty:
         """U_c per sensor from the [[uncertainty]] sources (Eq. 4)."""
-        return combine_sources(self.uncertainty, self.measured, n_samples=self.n_samples, seed=self.seed)
+        try:
+            combined = combine_sources(self.uncertainty, self.measured, n_samples=self.n_samples, seed=self.seed,
+                                       streams=self.kept)
+            threshold_bounds(combined, self.phi, self.correction) if not combined.exact else None
+        except ValueError as exc:
+            if "samples are needed" not in str(exc):
+                raise
+            raise ProjectError(f"{self.file}: identification.n_samples: {exc}") from None
+        return combined
 
     def run(self, *, progress: bool = True) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass."""
@@ -191,6 +203,8 @@ def _read_precomputed(project: Project) -> tuple[np.ndarray, np.ndarray]:
     if theta.shape[0] != predictions.shape[0]:
         raise ProjectError(f"{m.predictions}: expected {theta.shape[0]} rows (one per parameter set of "
                            f"{m.parameters.name}), got {predictions.shape[0]}")
+    if theta.shape[0] == 0:
+        raise ProjectError(f"{m.parameters}: expected at least one model instance, the file has none")
     for j, p in enumerate(project.parameters):
         bad = np.flatnonzero(~((theta[:, j] >= p.low) & (theta[:, j] <= p.high)))
         if bad.size:

@@ -86,8 +86,8 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     """The callable ``module:function``, importing with ``path`` on sys.path.
 
     ``path`` stays on sys.path so the model can import its own helpers lazily.
-    Module names are cached by Python: two projects in one process need
-    modules of different names.
+    A module of the same name cached from another project's folder is
+    imported afresh from this project's folder, never silently reused.
     """
     module_name, _, attr = ref.partition(":")
     if not path.is_dir():
@@ -95,6 +95,7 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     folder = str(path.resolve())
     if folder not in sys.path:
         sys.path.insert(0, folder)
+    _forget_if_from_elsewhere(module_name, Path(folder))
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
@@ -111,6 +112,20 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     if not callable(func):
         raise ProjectError(f"{label}: {key}: '{ref}' is not callable (got {type(func).__name__})")
     return func
+
+
+def _forget_if_from_elsewhere(module_name: str, folder: Path) -> None:
+    """Drops a cached module (and its submodules) when this project's folder
+    holds a module of that name but the cached one was loaded from elsewhere."""
+    top = module_name.split(".")[0]
+    local = folder / f"{top}.py" if (folder / f"{top}.py").is_file() else folder / top / "__init__.py"
+    cached = sys.modules.get(top)
+    if not local.is_file() or cached is None:
+        return
+    cached_file = getattr(cached, "__file__", None)
+    if cached_file is None or Path(cached_file).resolve() != local.resolve():
+        for name in [n for n in sys.modules if n == top or n.startswith(top + ".")]:
+            del sys.modules[name]
 
 
 class CheckedModel:

@@ -99,15 +99,21 @@ def resolve_sources(specs: tuple[UncertaintySpec, ...], sensors: tuple[Sensor, .
 
 
 def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray, *,
-                    n_samples: int = 200_000, seed: int = 0) -> CombinedUncertainty:
-    """U_c per sensor: the sum of the model sources minus the measurement sources covering it."""
+                    n_samples: int = 200_000, seed: int = 0, streams=None) -> CombinedUncertainty:
+    """U_c per sensor: the sum of the model sources minus the measurement sources covering it.
+
+    Each sensor's Monte Carlo samples come from its own random stream, keyed by
+    ``streams[j]`` (the sensor's index among all sensors, so leaving a sensor
+    out does not change the others' samples).
+    """
     n_m = len(measured)
     model: list[list] = [[] for _ in range(n_m)]
     measurement: list[list] = [[] for _ in range(n_m)]
     for src in sources:
         for j, dist in src.per_sensor(measured):
             (model if src.kind == "model" else measurement)[j].append(dist)
-    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(n_m)]
+    streams = range(n_m) if streams is None else streams
+    rngs = [np.random.default_rng([seed, int(k)]) for k in streams]
     per_sensor = [combine(model=model[j], measurement=measurement[j], n_sensors=1, n_samples=n_samples,
                           seed=rngs[j]) for j in range(n_m)]
     mean = np.array([c.mean[0] for c in per_sensor])

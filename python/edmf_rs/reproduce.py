@@ -324,6 +324,8 @@ def reproduce(out, seeds: int = 200, seed: int = 0) -> Reproduction:
         raise ValueError(f"--seed: expected a non-negative integer, got {seed!r}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    # results.json is written last: without it, a folder's outputs are known to be incomplete.
+    (out / "results.json").unlink(missing_ok=True)
 
     coverage_results = cov.figure3_cases(n_draws=cov.PAPER_N_DRAWS, seed=seed)
     rates = identification_rates(seeds, seed)

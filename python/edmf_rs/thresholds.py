@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core, intervals
-from ._validate import finite_vector, probability
+from ._validate import finite_vector, positive_int, probability
 
 CORRECTIONS = ("sidak", "bonferroni", "none")
 
@@ -58,13 +58,21 @@ class Thresholds:
 def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") -> float:
     """Probability each sensor's interval must hold for a joint target ``phi``."""
     phi = probability(phi, "phi")
+    n_sensors = positive_int(n_sensors, "n_sensors")
     if correction == "sidak":
-        return phi ** (1.0 / n_sensors)  # Eq. 5
-    if correction == "bonferroni":
-        return 1.0 - (1.0 - phi) / n_sensors
-    if correction == "none":
-        return phi
-    raise ValueError(f"correction: expected one of {', '.join(map(repr, CORRECTIONS))}, got {correction!r}")
+        p = phi ** (1.0 / n_sensors)  # Eq. 5
+    elif correction == "bonferroni":
+        p = 1.0 - (1.0 - phi) / n_sensors
+    elif correction == "none":
+        p = phi
+    else:
+        raise ValueError(f"correction: expected one of {', '.join(map(repr, CORRECTIONS))}, got {correction!r}")
+    if p >= 1.0:
+        raise ValueError(
+            f"phi: {phi!r} is so close to 1 that the per-sensor probability for {n_sensors} sensors "
+            "rounds to 1 (unbounded thresholds); use a smaller phi"
+        )
+    return p
 
 
 def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak") -> Thresholds:
@@ -92,6 +100,12 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak") -> 
             )
         combined = intervals.split(combined, shape[0])
     if isinstance(combined, (list, tuple)) and combined and all(map(intervals.is_frozen, combined)):
+        for i, d in enumerate(combined):
+            if intervals.batch_shape(d) != ():
+                raise ValueError(
+                    f"combined: expected one scalar distribution per sensor, element {i} is vectorised "
+                    f"over shape {intervals.batch_shape(d)}"
+                )
         p = sensor_probability(phi, len(combined), correction)
         low, high = intervals.shortest_intervals(combined, p)
     else:
@@ -117,4 +131,7 @@ def _samples(combined) -> np.ndarray:
         raise ValueError(f"combined: expected samples of shape (n_samples, n_m), got shape {samples.shape}")
     if samples.shape[1] == 0:
         raise ValueError("combined: expected at least one sensor (n_m >= 1), got 0")
-    return np.require(samples, dtype=np.float64, requirements="A")
+    samples = np.require(samples, dtype=np.float64, requirements="A")
+    if any(stride < 0 for stride in samples.strides):
+        samples = np.ascontiguousarray(samples)  # the core reads non-negative strides in place
+    return samples

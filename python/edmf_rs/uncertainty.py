@@ -7,6 +7,7 @@ Sources are ordinary frozen ``scipy.stats`` distributions.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,7 +69,15 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
     """
     sources = []
     for sign, group, name in ((1.0, model, "model"), (-1.0, measurement, "measurement")):
-        group = [group] if intervals.is_frozen(group) else list(group)
+        if intervals.is_frozen(group):
+            group = [group]
+        elif isinstance(group, (list, tuple)):
+            group = list(group)
+        else:
+            raise TypeError(
+                f"{name}: expected a frozen scipy.stats continuous distribution or a list of sources, "
+                f"got {type(group).__name__}"
+            )
         for k, src in enumerate(group):
             per_sensor, dist, n = _source_dists(src, f"{name}[{k}]")
             sources.append((sign, per_sensor, dist, n, f"{name}[{k}]"))
@@ -83,28 +92,51 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
     if not sizes:
         raise ValueError("n_sensors: every source is scalar, so give n_sensors")
     n_m = sizes.pop()
+    for group in ("model", "measurement"):
+        scalar = [nm for _, per, _, n, nm in sources if nm.startswith(group + "[") and per is None and n is None]
+        if len(scalar) >= 2 and len(scalar) == n_m:
+            warnings.warn(
+                f"{group}: {len(scalar)} scalar sources, each applied to every sensor and summed; a list "
+                f"with one distribution per sensor must be nested, e.g. {group}=[[d1, d2, ...]]",
+                stacklevel=2,
+            )
 
     per_sensor = [s[1] or intervals.split(s[2], n_m) for s in sources]
     if all(d.dist.name == "norm" for group in per_sensor for d in group):
         mean = np.zeros(n_m)
         var = np.zeros(n_m)
         for (sign, *_), group in zip(sources, per_sensor):
-            mean += sign * np.array([d.mean() for d in group])
-            var += np.array([d.var() for d in group])
-        if np.any(var <= 0):
-            raise ValueError("model, measurement: the combined standard deviation is zero at some sensor")
+            loc, scale = np.array([_normal_parameters(d) for d in group]).T
+            mean += sign * loc
+            var += scale**2
+        if not np.all(var > 0):
+            i = int(np.flatnonzero(~(var > 0))[0])
+            raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
         return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)))
 
     n_samples = positive_int(n_samples, "n_samples")
     rng = np.random.default_rng(seed)
     samples = np.zeros((n_samples, n_m))
-    for sign, group, dist, _, _ in sources:
+    for sign, group, dist, _, name in sources:
         if dist is not None:
-            samples += sign * dist.rvs(size=(n_samples, n_m), random_state=rng)
+            draws = dist.rvs(size=(n_samples, n_m), random_state=rng)
         else:
-            for j, d in enumerate(group):
-                samples[:, j] += sign * d.rvs(size=n_samples, random_state=rng)
+            draws = np.column_stack([d.rvs(size=n_samples, random_state=rng) for d in group])
+        if not np.all(np.isfinite(draws)):
+            raise ValueError(f"{name}: its distribution gave non-finite samples (check its parameters)")
+        samples += sign * draws
     return CombinedUncertainty(n_m, samples=samples)
+
+
+def _normal_parameters(dist) -> tuple[float, float]:
+    """(loc, scale) of a scalar frozen normal; scale 0 (a fixed offset) is allowed,
+    which scipy's own mean()/var() report as NaN."""
+    args = dict(zip(("loc", "scale"), dist.args))
+    args.update(dist.kwds)
+    loc, scale = float(args.get("loc", 0.0)), float(args.get("scale", 1.0))
+    if not (np.isfinite(loc) and np.isfinite(scale) and scale >= 0):
+        raise ValueError(f"model, measurement: a normal source needs a finite mean and sd >= 0, got {loc}, {scale}")
+    return loc, scale
 
 
 def relative_to_measured(fraction, measured):

@@ -81,7 +81,16 @@ pub fn window_len(probability: f64, n: usize) -> usize {
 
 /// Shortest interval holding `window_len(p, n)` of `sorted` samples.
 /// Ties go to the lowest interval so the answer never depends on scheduling.
-pub fn shortest_interval(sorted: &[f64], probability: f64) -> (f64, f64) {
+pub fn shortest_interval(sorted: &[f64], probability: f64) -> Result<(f64, f64)> {
+    check_probability(probability)?;
+    if sorted.is_empty() {
+        return Err(EdmfError::invalid("combined", "at least one sample, got none"));
+    }
+    Ok(shortest_window(sorted, probability))
+}
+
+/// `shortest_interval` for checked arguments (non-empty, 0 < p < 1).
+fn shortest_window(sorted: &[f64], probability: f64) -> (f64, f64) {
     let n = sorted.len();
     let k = window_len(probability, n);
     let mut best = 0;
@@ -129,7 +138,7 @@ pub fn shortest_intervals(
                         ));
                     }
                     column.sort_unstable_by(f64::total_cmp);
-                    Ok(shortest_interval(&column, probability))
+                    Ok(shortest_window(&column, probability))
                 })
                 .collect()
         });
@@ -174,13 +183,15 @@ mod tests {
     fn shortest_interval_finds_the_dense_cluster() {
         // 8 of 10 samples packed in [10, 10.7]; the other two far away on the left.
         let s = [0.0, 1.0, 10.0, 10.1, 10.2, 10.3, 10.4, 10.5, 10.6, 10.7];
-        assert_eq!(shortest_interval(&s, 0.8), (10.0, 10.7));
+        assert_eq!(shortest_interval(&s, 0.8), Ok((10.0, 10.7)));
+        assert!(shortest_interval(&[], 0.8).is_err());
+        assert!(shortest_interval(&s, 1.0).is_err());
     }
 
     #[test]
     fn shortest_interval_ties_go_to_the_lowest_window() {
         let s = [0.0, 1.0, 2.0, 3.0];
-        assert_eq!(shortest_interval(&s, 0.5), (0.0, 1.0));
+        assert_eq!(shortest_interval(&s, 0.5), Ok((0.0, 1.0)));
     }
 
     #[test]
