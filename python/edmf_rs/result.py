@@ -86,7 +86,9 @@ class FalsificationResult:
             lines.append(
                 f"thresholds: phi = {t.phi:g}, {t.correction} correction, per-sensor probability {t.probability:.6f}"
             )
-        if self.model_class_falsified:
+        if self.n_instances == 0:
+            lines.append("candidate model set: EMPTY - no model instance was given")
+        elif self.model_class_falsified:
             lines.append("candidate model set: EMPTY - every instance is falsified, so the model class is falsified")
         else:
             lines.append(f"candidate model set: {self.n_candidates:,} instances ({share:.3g} %)")
