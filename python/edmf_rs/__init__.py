@@ -11,6 +11,7 @@ Typical use::
 
 from . import baselines, coverage, examples, reference
 from ._core import get_num_threads, set_num_threads
+from .checkpoint import CheckpointError
 from .baselines import LeastSquaresResult, PosteriorResult, bayesian_posterior, least_squares
 from .coverage import CoverageResult
 from .falsify import falsify
@@ -20,6 +21,7 @@ from .thresholds import Thresholds, sensor_probability, threshold_bounds
 from .uncertainty import CombinedUncertainty, combine, relative_to_measured
 
 __all__ = [
+    "CheckpointError",
     "CombinedUncertainty",
     "CoverageResult",
     "LeastSquaresResult",

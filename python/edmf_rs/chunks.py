@@ -1,14 +1,18 @@
 """Turns what users pass as ``predictions`` (an array, a ``.npy`` path or an
-iterable of chunks) into checked 2-D chunks the Rust core reads in place."""
+iterable of chunks) into checked 2-D chunks the Rust core reads in place,
+optionally from a given instance on (to resume a run)."""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
 from . import npy
+
+#: Called with (instance index, row) for skipped rows a resumed run checks.
+RowCheck = Callable[[int, np.ndarray], None]
 
 
 def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
@@ -31,37 +35,121 @@ def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
     if arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative:
         arr = arr.astype(np.float64 if arr.dtype != np.float32 else np.float32)
     if any(s < 0 for s in arr.strides) or not arr.flags.aligned:
-        arr = np.ascontiguousarray(arr)
+        arr = arr.copy(order="C")  # (ascontiguousarray keeps a contiguous misaligned array as is)
     return arr
+
+
+class Source:
+    """Where predictions come from; ``n_instances`` is None when unknown."""
+
+    n_instances: int | None = None
+
+    def chunks(self, start: int = 0, check: RowCheck | None = None) -> Iterator[np.ndarray]:
+        """Checked chunks in instance order from instance ``start`` on. When
+        resuming, ``check`` is given rows 0 and ``start - 1``."""
+        raise NotImplementedError
+
+
+class ArraySource(Source):
+    def __init__(self, arr, n_sensors: int, chunk_rows: int | None):
+        self.arr = as_chunk(arr, n_sensors)
+        self.n_instances = int(self.arr.shape[0])
+        self.chunk_rows = chunk_rows
+
+    def chunks(self, start=0, check=None):
+        arr = self.arr
+        if check is not None and start > 0:
+            check(0, arr[0])
+            check(start - 1, arr[start - 1])
+        step = self.chunk_rows or max(arr.shape[0] - start, 1)
+        if start == 0 and arr.shape[0] == 0:
+            yield arr  # an empty run still meets the core once (it checks the width)
+        for first in range(start, arr.shape[0], step):
+            yield arr[first:first + step]
+
+
+class FileSource(Source):
+    def __init__(self, path, n_sensors: int, chunk_rows: int | None):
+        with npy.NpyFile(path) as f:
+            if f.n_cols != n_sensors:
+                raise ValueError(
+                    f"predictions: {path!s} has {f.n_cols} columns (shape {f.shape}), expected {n_sensors} "
+                    "(one per sensor, as in measurements)"
+                )
+            self.n_instances = f.n_rows
+        self.path, self.chunk_rows = path, chunk_rows
+
+    def chunks(self, start=0, check=None):
+        if check is not None and start > 0:
+            with npy.NpyFile(self.path) as f:
+                check(0, f.rows(0, 1)[0])
+                check(start - 1, f.rows(start - 1, 1)[0])
+        yield from npy.read_chunks(self.path, self.chunk_rows, start=start)
+
+
+class IterableSource(Source):
+    def __init__(self, chunks: Iterable, n_sensors: int):
+        self.iterable, self.n_sensors = chunks, n_sensors
+
+    def chunks(self, start=0, check=None):
+        return skip_rows(self._checked(), start, check, "predictions")
+
+    def _checked(self) -> Iterator[np.ndarray]:
+        width = None
+        for k, chunk in enumerate(self.iterable):
+            arr = chunk if isinstance(chunk, np.ndarray) else np.asarray(chunk)
+            if width is None and arr.ndim == 2:
+                width = arr.shape[1]
+            if arr.ndim == 2 and arr.shape[1] != width:
+                raise ValueError(
+                    f"predictions: chunk {k} has {arr.shape[1]} columns, expected {width} like the first chunk"
+                )
+            yield as_chunk(arr, self.n_sensors, name=f"predictions (chunk {k})")
+
+
+def open_source(predictions, n_sensors: int, chunk_rows: int | None = None) -> Source:
+    if isinstance(predictions, (str, os.PathLike)):
+        return FileSource(predictions, n_sensors, chunk_rows)
+    if _is_array_like(predictions):
+        return ArraySource(predictions, n_sensors, chunk_rows)
+    if isinstance(predictions, Iterable):
+        return IterableSource(predictions, n_sensors)
+    raise TypeError(
+        "predictions: expected a 2-D array, a path to a .npy file or an iterable of 2-D chunks, "
+        f"got {type(predictions).__name__}"
+    )
 
 
 def iter_chunks(predictions, n_sensors: int, chunk_rows: int | None = None) -> Iterator[np.ndarray]:
     """Checked chunks in instance order; a file is read chunk by chunk."""
-    if isinstance(predictions, (str, os.PathLike)):
-        for block in npy.read_chunks(predictions, chunk_rows):
-            yield as_chunk(block, n_sensors)
-        return
-    if _is_array_like(predictions):
-        arr = as_chunk(predictions, n_sensors)
-        step = chunk_rows or max(arr.shape[0], 1)
-        for first in range(0, max(arr.shape[0], 1), step):
-            yield arr[first:first + step]
-        return
-    if not isinstance(predictions, Iterable):
-        raise TypeError(
-            "predictions: expected a 2-D array, a path to a .npy file or an iterable of 2-D chunks, "
-            f"got {type(predictions).__name__}"
+    return open_source(predictions, n_sensors, chunk_rows).chunks()
+
+
+def skip_rows(blocks: Iterator[np.ndarray], start: int, check: RowCheck | None,
+              name: str) -> Iterator[np.ndarray]:
+    """The rows of ``blocks`` (2-D arrays in order) from row ``start`` on.
+
+    Skipped blocks are consumed but not used; ``check`` sees rows 0 and
+    ``start - 1`` so a resumed run can tell the input is the one it began with.
+    """
+    seen = 0
+    for block in blocks:
+        if seen >= start:
+            yield block
+            continue
+        n = block.shape[0]
+        if check is not None and start > 0:
+            for i in {0, start - 1}:
+                if seen <= i < seen + n:
+                    check(i, block[i - seen])
+        seen += n
+        if seen > start:
+            yield block[block.shape[0] - (seen - start):]
+    if seen < start:
+        raise ValueError(
+            f"{name}: the input ended after {seen} instances, but the run being resumed had already "
+            f"done {start}: it is not the input the run began with"
         )
-    width = None
-    for k, chunk in enumerate(predictions):
-        arr = np.asarray(chunk) if not isinstance(chunk, np.ndarray) else chunk
-        if width is None and arr.ndim == 2:
-            width = arr.shape[1]
-        if arr.ndim == 2 and arr.shape[1] != width:
-            raise ValueError(
-                f"predictions: chunk {k} has {arr.shape[1]} columns, expected {width} like the first chunk"
-            )
-        yield as_chunk(arr, n_sensors, name=f"predictions (chunk {k})")
 
 
 def _is_array_like(obj) -> bool:

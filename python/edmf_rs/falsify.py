@@ -8,13 +8,17 @@ import numpy as np
 
 from . import _core
 from ._validate import finite_vector, positive_int
-from .chunks import iter_chunks
+from .checkpoint import Checkpoint, digest, every_seconds, fingerprint, save_on_error
+from .chunks import FileSource, open_source
+from .npy import CHUNK_BYTES
+from .progress import bar
 from .result import FalsificationResult
 from .thresholds import Thresholds
 
 
 def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,
-            keep_violations: bool | None = None, chunk_rows: int | None = None) -> FalsificationResult:
+            keep_violations: bool | None = None, chunk_rows: int | None = None, progress: bool = True,
+            checkpoint: str | os.PathLike | None = None, checkpoint_every: float = 60.0) -> FalsificationResult:
     """Falsify every model instance whose residual leaves the thresholds at any sensor.
 
     An instance (row of ``predictions``) is a candidate iff for every sensor i,
@@ -25,9 +29,12 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     predictions
         Model predictions g(theta), one row per instance and one column per
         sensor: a 2-D float64/float32 array (C, Fortran or strided, read in
-        place), a path to a ``.npy`` file (read in chunks: memory does not grow
-        with N), or an iterable of 2-D chunks. The result does not depend on
-        the chunking nor on the thread count.
+        place), a path to a ``.npy`` file of any size (read in chunks by a
+        background thread while the previous chunk is falsified: memory does
+        not grow with N; any byte order, integers allowed), or an iterable of
+        2-D chunks (each used before the next is asked for, so a generator
+        may refill one buffer). The result does not depend on the chunking
+        nor on the thread count.
     measurements
         Measured values y, one per sensor.
     thresholds
@@ -41,6 +48,13 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         Default: yes for arrays and iterables, no for files.
     chunk_rows
         Rows per chunk when splitting an array or reading a file.
+    progress
+        Show a progress bar once the run lasts a few seconds.
+    checkpoint
+        A folder where the run saves its candidates and position as it goes
+        (every ``checkpoint_every`` seconds, on Ctrl-C and at the end). Calling
+        again with the same folder and inputs resumes after the last saved
+        chunk (or returns the finished result); other inputs are refused.
     """
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
@@ -55,12 +69,55 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         keep_violations = diagnostics and not isinstance(predictions, (str, os.PathLike))
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
+    keep_violations = bool(keep_violations)
+    if checkpoint is not None and chunk_rows is None:
+        chunk_rows = max(1024, CHUNK_BYTES // (8 * y.shape[0]))  # so an array is checkpointed in steps too
+    source = open_source(predictions, y.shape[0], chunk_rows)
+    ckpt = None
+    if checkpoint is not None:
+        fp = fingerprint("falsify", y, thresholds, diagnostics=bool(diagnostics),
+                         keep_violations=keep_violations, n_instances=source.n_instances)
+        ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every),
+                          ("n_violated",) if keep_violations else ())
+        if ckpt.complete:
+            return ckpt.result(thresholds, y)
+    start = ckpt.n_done if ckpt else 0
 
     acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
-                          keep_violations=bool(keep_violations))
-    for chunk in iter_chunks(predictions, y.shape[0], chunk_rows):
-        acc.update(chunk)
-    return from_accumulator(acc, y, thresholds)
+                          keep_violations=keep_violations)
+    chunks = source.chunks(start, ckpt.verify_row if ckpt else None)
+    tail = None  # (index, row) of the last instance falsified, for the checkpoint
+    with bar(source.n_instances, progress and _streams(source, chunk_rows), initial=start) as progress_bar:
+        try:
+            for chunk in chunks:
+                first = start + int(acc.n_instances)
+                acc.update(chunk)
+                if ckpt is None:
+                    progress_bar.update(chunk.shape[0])
+                    continue
+                if chunk.shape[0]:
+                    if first == 0:
+                        ckpt.first_row = digest(chunk[0])
+                    tail = (first + chunk.shape[0] - 1, chunk[-1].copy())
+                progress_bar.update(chunk.shape[0])
+                if ckpt.due():
+                    ckpt.flush(acc, tail)
+        except BaseException as exc:
+            save_on_error(ckpt, acc, tail, exc)
+            raise
+        finally:
+            close = getattr(chunks, "close", None)
+            if close is not None:
+                close()  # stops a file's reader thread now, not at garbage collection
+    if ckpt is None:
+        return from_accumulator(acc, y, thresholds)
+    ckpt.flush(acc, tail, final=True)
+    return ckpt.result(thresholds, y)
+
+
+def _streams(source, chunk_rows) -> bool:
+    """A bar is worth it for files, iterables and arrays cut into chunks."""
+    return isinstance(source, FileSource) or source.n_instances is None or chunk_rows is not None
 
 
 def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds) -> FalsificationResult:
@@ -71,7 +128,7 @@ def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds) -> F
         thresholds=thresholds,
         measurements=measurements,
         n_instances=int(acc.n_instances),
-        candidate_indices=_readonly(acc.candidates().astype(np.int64)),
+        candidate_indices=_readonly(acc.candidates().view(np.int64)),  # indices < 2**63: no copy
         per_sensor_falsified=None if tally is None else _readonly(tally[0].astype(np.int64)),
         falsified_only_by=None if tally is None else _readonly(tally[1].astype(np.int64)),
         n_invalid=None if tally is None else int(tally[2]),

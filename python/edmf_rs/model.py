@@ -8,22 +8,27 @@ of the candidate model set, not the number of instances.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 
 from . import _core
 from ._validate import finite_vector, positive_int
-from .chunks import as_chunk
-from .falsify import from_accumulator
+from .checkpoint import Checkpoint, digest, every_seconds, fingerprint, save_on_error
+from .chunks import RowCheck, as_chunk, skip_rows
+from .falsify import _readonly, from_accumulator
 from .progress import bar
 from .result import FalsificationResult
 from .thresholds import Thresholds
 
 
-def parameter_batches(parameters, batch_size: int) -> tuple[Iterator[np.ndarray], int | None]:
-    """Batches of parameter sets (rows) and the total count when known."""
+def parameter_batches(parameters, batch_size: int, start: int = 0,
+                      check: RowCheck | None = None) -> tuple[Iterator[np.ndarray], int | None]:
+    """Batches of parameter sets (float64 rows) from row ``start`` on, and the
+    total count when known. When resuming, ``check`` sees rows 0 and start-1."""
     if isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and parameters
                                               and np.ndim(parameters[0]) < 2):
         arr = np.asarray(parameters, dtype=np.float64)
@@ -31,45 +36,61 @@ def parameter_batches(parameters, batch_size: int) -> tuple[Iterator[np.ndarray]
             arr = arr[:, None]
         if arr.ndim != 2:
             raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
-        return (arr[i:i + batch_size] for i in range(0, arr.shape[0], batch_size)), arr.shape[0]
-    if not isinstance(parameters, Iterable):
-        raise TypeError(f"parameters: expected an (N, p) array or an iterable of batches, got {type(parameters).__name__}")
+        if check is not None and start > 0:
+            check(0, arr[0])
+            check(start - 1, arr[start - 1])
+        return (arr[i:i + batch_size] for i in range(start, arr.shape[0], batch_size)), arr.shape[0]
+    if isinstance(parameters, (str, bytes)) or not isinstance(parameters, Iterable):
+        raise TypeError(
+            f"parameters: expected an (N, p) array or an iterable of (n, p) batches, got {type(parameters).__name__}"
+        )
 
     def checked() -> Iterator[np.ndarray]:
         width = None
         for k, batch in enumerate(parameters):
-            arr = np.asarray(batch, dtype=np.float64)
+            try:
+                # A copy: batch k is still being falsified while the source
+                # produces batch k+1, perhaps into the same buffer.
+                arr = np.array(batch, dtype=np.float64, copy=True)
+            except (TypeError, ValueError) as exc:
+                raise TypeError(f"parameters: batch {k} is not an array of numbers ({exc})") from None
             arr = arr[:, None] if arr.ndim == 1 else arr
             if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
-                raise ValueError(f"parameters: batch {k} has shape {arr.shape}, expected (n, {width or 'p'})")
+                raise ValueError(
+                    f"parameters: batch {k} has shape {arr.shape}, expected (n, {width or 'p'})"
+                    + (" like the batches before it" if width is not None else "")
+                )
             width = arr.shape[1]
             yield arr
-    return checked(), None
+    return skip_rows(checked(), start, check, "parameters"), None
 
 
-def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, nan: str) -> np.ndarray:
+def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, nan: str,
+             index: int | None = None) -> np.ndarray:
     """Runs the model on one batch and checks what it returns."""
+    where = (f"batch {index}, " if index is not None else "") + f"instances {offset}..{offset + len(batch) - 1}"
     try:
         predictions = model(batch)
     except Exception as exc:
-        exc.add_note(f"edmf_rs: raised by the model on instances {offset}..{offset + len(batch) - 1}")
+        exc.add_note(f"edmf_rs: raised by the model on {where}")
         raise
     try:
         predictions = np.asarray(predictions)
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"model: expected an array of predictions, got {type(predictions).__name__}") from exc
+        raise TypeError(f"model: expected an array of predictions, got {type(predictions).__name__} "
+                        f"on {where}") from exc
     if predictions.shape != (batch.shape[0], n_sensors):
         raise ValueError(
-            f"model: returned shape {predictions.shape} for {batch.shape[0]} parameter sets, "
+            f"model: returned shape {predictions.shape} for {batch.shape[0]} parameter sets ({where}), "
             f"expected ({batch.shape[0]}, {n_sensors}) (one prediction per sensor)"
         )
-    chunk = as_chunk(predictions, n_sensors, name="model")
+    chunk = as_chunk(predictions, n_sensors, name=f"model ({where})")
     if nan == "raise":
         bad = np.flatnonzero(np.isnan(chunk).any(axis=1))
         if bad.size:
             raise ValueError(
-                f"model: returned NaN for instance {offset + bad[0]} (parameters {batch[bad[0]].tolist()}); "
-                "pass nan='falsify' to count such instances as invalid instead"
+                f"model: returned NaN for instance {offset + bad[0]} ({where}; parameters "
+                f"{batch[bad[0]].tolist()}); pass nan='falsify' to count such instances as invalid instead"
             )
     return chunk
 
@@ -77,7 +98,9 @@ def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, na
 def falsify_model(model: Callable, parameters, measurements, thresholds: Thresholds, *,
                   batch_size: int = 10_000, diagnostics: bool = True, keep_violations: bool = False,
                   nan: str = "raise", progress: bool = True,
-                  on_batch: Callable[[int, np.ndarray, np.ndarray], None] | None = None) -> FalsificationResult:
+                  on_batch: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
+                  checkpoint: str | os.PathLike | None = None,
+                  checkpoint_every: float = 60.0) -> FalsificationResult:
     """Evaluate ``model`` on every parameter set and falsify as it goes (Eq. 8).
 
     Parameters
@@ -86,14 +109,23 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         Vectorised callable: ``model(batch)`` with ``batch`` of shape (n, p)
         returns predictions of shape (n, n_m), one column per sensor.
     parameters
-        An (N, p) array, or an iterable of (n, p) batches (e.g. from
-        ``scipy.stats.qmc``) consumed once.
+        An (N, p) array, or an iterable of (n, p) batches consumed once (e.g.
+        a generator of ``scipy.stats.qmc.Sobol(d).random(n)`` draws).
     nan
         ``"raise"`` (default): a NaN prediction is an error naming the
         instance; ``"falsify"``: such instances are counted invalid.
     on_batch
         Called as ``on_batch(offset, parameters, predictions)`` for every batch,
         e.g. to compute extra diagnostics.
+    progress
+        Show a progress bar once the run lasts a few seconds.
+    checkpoint
+        A folder where the run saves its candidates and position as it goes
+        (every ``checkpoint_every`` seconds, on Ctrl-C or a model error, and at
+        the end). Calling again with the same folder and inputs resumes after
+        the last saved batch without evaluating the model on the parameter
+        sets already done (an iterable is still drawn from, to skip them; an
+        array is sliced); other inputs are refused.
 
     Returns a :class:`FalsificationResult` whose ``candidate_parameters`` and
     ``candidate_predictions`` hold the candidates' rows.
@@ -104,46 +136,101 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
     if nan not in ("raise", "falsify"):
         raise ValueError(f"nan: expected 'raise' or 'falsify', got {nan!r}")
+    if keep_violations and not diagnostics:
+        raise ValueError("keep_violations: expected False when diagnostics=False")
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
-    batches, total = parameter_batches(parameters, positive_int(batch_size, "batch_size"))
+    batch_size = positive_int(batch_size, "batch_size")
+    ckpt = None
+    if checkpoint is not None:
+        n_total = _known_length(parameters)
+        fp = fingerprint("falsify_model", y, thresholds, diagnostics=bool(diagnostics),
+                         keep_violations=bool(keep_violations), nan=nan, model=_model_name(model),
+                         n_instances=n_total)
+        fields = ("n_violated",) if keep_violations else ()
+        ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every), fields + ("parameters", "predictions"),
+                          input_name="parameters")
+        if ckpt.complete:
+            return ckpt.result(thresholds, y)
+    start = ckpt.n_done if ckpt else 0
+    batches, total = parameter_batches(parameters, batch_size, start, ckpt.verify_row if ckpt else None)
+
     acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
                           keep_violations=keep_violations)
-    kept_parameters: list[np.ndarray] = []
-    kept_predictions: list[np.ndarray] = []
-    n_params = None
+    kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
+    tail: list = [None]  # (index, parameter row) of the last instance falsified
+    n_params = ckpt.extra.get("n_parameters") if ckpt else None
 
     def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
+        # Runs on the worker thread, which signals never interrupt: the
+        # accumulator and the kept rows always move together.
         seen = acc.n_candidates
         acc.update(preds)
         local = acc.candidates(seen).astype(np.int64) - offset
-        kept_parameters.append(params[local])
-        kept_predictions.append(preds[local])
+        kept["parameters"].append(params[local])
+        kept["predictions"].append(preds[local])
+        if len(params):
+            tail[0] = (start + offset + len(params) - 1, params[-1])
 
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="edmf-rs-falsify") as pool, \
-            bar(total, progress) as progress_bar:
+            bar(total, progress, initial=start) as progress_bar:
         pending = None
-        offset = 0
-        for params in batches:
-            n_params = params.shape[1]
-            preds = evaluate(model, params, offset, y.shape[0], nan)
-            if on_batch is not None:
-                on_batch(offset, params, preds)
+        offset = 0  # instances of this session (after `start`)
+        try:
+            for k, params in enumerate(batches):
+                if n_params is not None and params.shape[1] != n_params:
+                    raise ValueError(f"parameters: batch {k} has {params.shape[1]} columns, expected {n_params}"
+                                     " like the batches before it")
+                n_params = params.shape[1]
+                if params.shape[0] == 0:
+                    continue
+                preds = evaluate(model, params, start + offset, y.shape[0], nan, k if start == 0 else None)
+                if on_batch is not None:
+                    on_batch(start + offset, params, preds)
+                if pending is not None:
+                    pending.result()
+                    pending = None
+                    if ckpt is not None and ckpt.due():
+                        ckpt.extra["n_parameters"] = n_params
+                        ckpt.flush(acc, tail[0], kept)
+                if ckpt is not None and start + offset == 0:
+                    ckpt.first_row = digest(params[0])
+                pending = pool.submit(falsify_batch, params, preds, offset)
+                offset += params.shape[0]
+                progress_bar.update(params.shape[0])
             if pending is not None:
                 pending.result()
-            pending = pool.submit(falsify_batch, params, preds, offset)
-            offset += params.shape[0]
-            progress_bar.update(params.shape[0])
-        if pending is not None:
-            pending.result()
+        except BaseException as exc:
+            if ckpt is not None:
+                try:
+                    if pending is not None:
+                        pending.result()  # the worker's batch completes or leaves no trace
+                except BaseException:
+                    pass
+                if pending is None or pending.done():  # never save while the worker runs
+                    ckpt.extra["n_parameters"] = n_params
+                    save_on_error(ckpt, acc, tail[0], exc, kept)
+            raise
 
+    if ckpt is not None:
+        ckpt.extra["n_parameters"] = n_params if n_params is not None else 0
+        ckpt.flush(acc, tail[0], kept, final=True)
+        return ckpt.result(thresholds, y)
     result = from_accumulator(acc, y, thresholds)
     p = n_params if n_params is not None else 0
-    return _with_candidates(result,
-                            np.concatenate(kept_parameters) if kept_parameters else np.empty((0, p)),
-                            np.concatenate(kept_predictions) if kept_predictions else np.empty((0, y.shape[0])))
+    params = np.concatenate(kept["parameters"]) if kept["parameters"] else np.empty((0, p))
+    preds = np.concatenate(kept["predictions"]) if kept["predictions"] else np.empty((0, y.shape[0]))
+    return replace(result, candidate_parameters=_readonly(params), candidate_predictions=_readonly(preds))
 
 
-def _with_candidates(result: FalsificationResult, params: np.ndarray, preds: np.ndarray) -> FalsificationResult:
-    from dataclasses import replace
+def _known_length(parameters) -> int | None:
+    if isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and parameters
+                                              and np.ndim(parameters[0]) < 2):
+        return int(np.shape(parameters)[0])
+    return None
 
-    return replace(result, candidate_parameters=params, candidate_predictions=preds)
+
+def _model_name(model) -> str:
+    """The model's qualified name, so resuming a folder with another model is refused."""
+    target = getattr(model, "func", model)  # functools.partial
+    name = getattr(target, "__qualname__", None) or type(target).__qualname__
+    return f"{getattr(target, '__module__', '') or ''}.{name}"

@@ -1,83 +1,210 @@
-"""Chunked reading of ``.npy`` files into one reused buffer, so falsifying a
-file never holds more than a chunk of it in memory (numpy's own header reader
-does the parsing)."""
+"""Chunked reading of ``.npy`` files of any size.
+
+Rows are read with ``readinto`` into two reused buffers by a reader thread, so
+reading chunk k+1 overlaps the caller's work on chunk k (both release the
+GIL) and memory stays a few chunks whatever the file size. ``np.load`` and
+memory maps are avoided on purpose: mapped pages count towards the process's
+resident memory as a whole file streams through.
+"""
 
 from __future__ import annotations
 
 import os
+import queue
+import threading
 from collections.abc import Iterator
 
 import numpy as np
 from numpy.lib import format as npy_format
 
-#: Bytes of predictions per chunk read from disk.
-CHUNK_BYTES = 32 * 2**20
+#: Bytes of predictions per chunk read from disk: two such buffers are live,
+#: small enough to stay in cache between the read and the falsification.
+CHUNK_BYTES = 4 * 2**20
+#: Chunks after the one being read that the OS is asked to fetch meanwhile.
+AHEAD = 4
 
 
-def read_header(fp, name: str = "predictions"):
-    """(shape, fortran_order, dtype) of an open .npy file, positioned at the data."""
-    try:
-        version = npy_format.read_magic(fp)
-        if version == (1, 0):
-            return npy_format.read_array_header_1_0(fp)
-        if version == (2, 0):
-            return npy_format.read_array_header_2_0(fp)
-        raise ValueError(f"unsupported .npy format version {version}")
-    except ValueError as exc:
-        raise ValueError(f"{name}: {getattr(fp, 'name', fp)} is not a readable .npy file ({exc})") from None
+class NpyFile:
+    """An open, checked 2-D numeric ``.npy`` file: ``shape``, ``dtype``, ``fortran``."""
+
+    def __init__(self, path, name: str = "predictions"):
+        self.path, self.name = path, name
+        try:
+            self.fp = open(os.fspath(path), "rb", buffering=0)
+        except OSError as exc:
+            raise ValueError(f"{name}: cannot open {path!s}: {exc.strerror}") from None
+        try:
+            self.shape, self.fortran, self.dtype = self._header()
+            if self.dtype.kind not in "iufb" or self.dtype.hasobject or self.dtype.fields:
+                raise TypeError(f"{name}: expected a numeric .npy file, {path!s} holds dtype {self.dtype}")
+            if len(self.shape) != 2:
+                raise ValueError(
+                    f"{name}: expected a 2-D array (instances x sensors) in {path!s}, got shape {self.shape}"
+                )
+            self.offset = self.fp.tell()
+            expected = self.shape[0] * self.shape[1] * self.dtype.itemsize
+            found = os.fstat(self.fp.fileno()).st_size - self.offset
+            if found < expected:
+                raise ValueError(
+                    f"{name}: {path!s} is truncated: its header promises {expected} bytes of data, "
+                    f"found {found}"
+                )
+        except BaseException:
+            self.fp.close()
+            raise
+        if hasattr(os, "posix_fadvise"):  # ask for aggressive read-ahead on cold files
+            os.posix_fadvise(self.fp.fileno(), 0, 0, os.POSIX_FADV_SEQUENTIAL)
+
+    def _header(self):
+        try:
+            version = npy_format.read_magic(self.fp)
+            if version == (1, 0):
+                return npy_format.read_array_header_1_0(self.fp)
+            if version in ((2, 0), (3, 0)):
+                return npy_format.read_array_header_2_0(self.fp)
+            raise ValueError(f"unsupported .npy format version {version}")
+        except Exception as exc:  # numpy's parser raises several types on garbage
+            raise ValueError(f"{self.name}: {self.path!s} is not a readable .npy file ({exc})") from None
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.shape[0])
+
+    @property
+    def n_cols(self) -> int:
+        return int(self.shape[1])
+
+    def close(self) -> None:
+        self.fp.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def read_into(self, out: np.ndarray, first: int) -> None:
+        """Fills ``out`` (rows x cols, file dtype and order) with rows ``first..``."""
+        size = self.dtype.itemsize
+        if self.fortran:  # each column of a Fortran file is contiguous on disk
+            for j in range(self.n_cols):
+                self._fill(out[:, j], self.offset + (j * self.n_rows + first) * size)
+        else:
+            self._fill(out, self.offset + first * self.n_cols * size)
+
+    def will_need(self, first: int, count: int) -> None:
+        """Asks the OS to start reading rows ``first..first+count`` now, so a
+        cold file keeps the disk busy while the current chunk is processed."""
+        if not hasattr(os, "posix_fadvise") or count <= 0:
+            return
+        size = self.dtype.itemsize
+        columns = range(self.n_cols) if self.fortran else [0]
+        span = count * size if self.fortran else count * self.n_cols * size
+        for j in columns:
+            start = self.offset + ((j * self.n_rows + first) * size if self.fortran else first * self.n_cols * size)
+            os.posix_fadvise(self.fp.fileno(), start, span, os.POSIX_FADV_WILLNEED)
+
+    def rows(self, first: int, count: int) -> np.ndarray:
+        """Rows ``first..first+count`` as a native float array (a fresh copy)."""
+        out = np.empty((count, self.n_cols), dtype=self.dtype, order="F" if self.fortran else "C")
+        self.read_into(out, first)
+        return native(out)
+
+    def _fill(self, out: np.ndarray, position: int) -> None:
+        view = memoryview(out).cast("B")
+        self.fp.seek(position)
+        done = 0
+        while done < view.nbytes:  # a raw read may return fewer bytes than asked
+            got = self.fp.readinto(view[done:])
+            if not got:
+                raise ValueError(f"{self.name}: {self.path!s} ended early (it was truncated while being read)")
+            done += got
 
 
-def open_npy(path, name: str = "predictions"):
-    """Opens a 2-D numeric .npy file and checks it is complete.
+def native(block: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """float32/float64 in native byte order, converting in place where possible."""
+    if block.dtype in (np.float32, np.float64) and block.dtype.isnative:
+        return block
+    if block.dtype.kind == "f" and block.dtype.itemsize in (4, 8):  # other byte order
+        block.byteswap(inplace=True)
+        return block.view(block.dtype.newbyteorder("="))
+    if out is None:
+        out = np.empty(block.shape, dtype=np.float64, order="F" if block.flags.f_contiguous else "C")
+    np.copyto(out, block, casting="unsafe")
+    return out
 
-    Returns (file object, shape, fortran_order, dtype, data offset).
+
+class _Slot:
+    """One read buffer (file dtype) and, for non-float files, its float64 copy."""
+
+    def __init__(self, f: NpyFile, rows: int):
+        order = "F" if f.fortran else "C"
+        self.raw = np.empty((rows, f.n_cols), dtype=f.dtype, order=order)
+        needs_copy = not (f.dtype.kind == "f" and f.dtype.itemsize in (4, 8))
+        self.converted = np.empty((rows, f.n_cols), dtype=np.float64, order=order) if needs_copy else None
+
+    def fill(self, f: NpyFile, first: int, count: int) -> np.ndarray:
+        raw = self.raw[:count]
+        f.read_into(raw, first)
+        return native(raw, None if self.converted is None else self.converted[:count])
+
+
+_END = object()
+
+
+def read_chunks(path, chunk_rows: int | None = None, name: str = "predictions",
+                start: int = 0) -> Iterator[np.ndarray]:
+    """Yields consecutive row blocks of a .npy file from row ``start``, as
+    native float32/float64 arrays (integers become float64).
+
+    Each yielded array is a reused buffer, valid until the next one is asked
+    for; meanwhile a reader thread fills the other buffer.
     """
+    f = NpyFile(path, name)
     try:
-        fp = open(os.fspath(path), "rb")
-    except OSError as exc:
-        raise ValueError(f"{name}: cannot open {path!s}: {exc.strerror}") from None
+        yield from _prefetched(f, chunk_rows, start)
+    finally:
+        f.close()
+
+
+def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.ndarray]:
+    n = f.n_rows
+    rows = chunk_rows or max(1024, CHUNK_BYTES // max(1, f.n_cols * f.dtype.itemsize))
+    rows = max(1, min(rows, n - start))
+    if start >= n:
+        return
+    free: queue.Queue = queue.Queue()
+    full: queue.Queue = queue.Queue()
+    for _ in range(2):
+        free.put(_Slot(f, rows))
+    stop = threading.Event()
+
+    def reader() -> None:
+        try:
+            for first in range(start, n, rows):
+                ahead = first + rows
+                f.will_need(ahead, min(AHEAD * rows, n - ahead))
+                slot = free.get()
+                if slot is None or stop.is_set():
+                    return
+                full.put((slot.fill(f, first, min(rows, n - first)), slot))
+            full.put(_END)
+        except BaseException as exc:  # handed to the consumer, raised there
+            full.put(exc)
+
+    thread = threading.Thread(target=reader, name="edmf-rs-npy-reader", daemon=True)
+    thread.start()
     try:
-        shape, fortran, dtype = read_header(fp, name)
-        if dtype.kind not in "iuf" or dtype.hasobject:
-            raise TypeError(f"{name}: expected a numeric .npy file, {path!s} holds dtype {dtype}")
-        if len(shape) != 2:
-            raise ValueError(f"{name}: expected a 2-D array (instances x sensors) in {path!s}, got shape {shape}")
-        offset = fp.tell()
-        expected = shape[0] * shape[1] * dtype.itemsize
-        found = os.fstat(fp.fileno()).st_size - offset
-        if found < expected:
-            raise ValueError(
-                f"{name}: {path!s} is truncated: its header promises {expected} bytes of data, found {found}"
-            )
-        return fp, shape, fortran, dtype, offset
-    except BaseException:
-        fp.close()
-        raise
-
-
-def read_chunks(path, chunk_rows: int | None = None, name: str = "predictions") -> Iterator[np.ndarray]:
-    """Yields consecutive row blocks of a .npy file.
-
-    The yielded array is a reused buffer: use it before asking for the next one.
-    """
-    fp, (n, n_m), fortran, dtype, offset = open_npy(path, name)
-    with fp:
-        rows = chunk_rows or max(1024, CHUNK_BYTES // max(1, n_m * dtype.itemsize))
-        buf = np.empty((min(rows, n), n_m), dtype=dtype, order="F" if fortran else "C")
-        for first in range(0, n, rows):
-            count = min(rows, n - first)
-            block = buf[:count]
-            if fortran:
-                for j in range(n_m):  # each column of a Fortran file is contiguous
-                    fp.seek(offset + (j * n + first) * dtype.itemsize)
-                    _fill(fp, block[:, j], path, name)
-            else:
-                _fill(fp, block, path, name)
+        while True:
+            item = full.get()
+            if item is _END:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            block, slot = item
             yield block
-
-
-def _fill(fp, out: np.ndarray, path, name: str) -> None:
-    view = memoryview(out).cast("B")
-    got = fp.readinto(view)
-    if got != view.nbytes:
-        raise ValueError(f"{name}: {path!s} ended early (it was truncated while being read)")
+            free.put(slot)  # the caller is done with it: the reader may refill it
+    finally:
+        stop.set()
+        free.put(None)
+        thread.join()

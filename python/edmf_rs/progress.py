@@ -9,6 +9,7 @@ from tqdm.auto import tqdm
 DELAY = 3.0
 
 
-def bar(total: int | None, enabled: bool, desc: str = "falsifying"):
-    return tqdm(total=total, disable=not enabled, delay=DELAY, unit=" instances",
-                unit_scale=True, desc=desc, dynamic_ncols=True)
+def bar(total: int | None, enabled: bool, desc: str = "falsifying", initial: int = 0):
+    """A bar counting instances; ``initial`` is where a resumed run starts."""
+    return tqdm(total=total, initial=initial, disable=not enabled, delay=DELAY, unit=" instances",
+                unit_scale=True, desc=desc, dynamic_ncols=True, smoothing=0.1)

@@ -1,0 +1,228 @@
+"""Falsification beyond one machine, with Dask (optional: ``pip install edmf_rs[dask]``).
+
+Each task runs the Rust kernel on one block of rows and returns a small
+result (the block's candidates and counts); the blocks' results are merged
+exactly by :func:`edmf_rs.concatenate`, so the outcome equals the in-process
+call whatever the chunking, the number of workers or their threads. On a
+``distributed`` worker the Rust thread pool is sized to the worker's threads.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable
+from dataclasses import replace
+
+import numpy as np
+
+try:
+    import dask
+    import dask.array as da
+except ImportError as exc:  # pragma: no cover - exercised in a subprocess test
+    raise ImportError(
+        "edmf_rs.dask needs Dask: install it with `pip install edmf_rs[dask]` "
+        "(or `pip install 'dask[array]' distributed`)"
+    ) from exc
+
+from . import _core
+from ._validate import finite_vector, positive_int
+from .chunks import as_chunk
+from .falsify import _readonly, from_accumulator
+from .model import evaluate
+from .progress import bar
+from .result import FalsificationResult, concatenate
+from .thresholds import Thresholds
+
+
+def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,
+            keep_violations: bool = False, client=None, progress: bool = True) -> FalsificationResult:
+    """:func:`edmf_rs.falsify` over the row blocks of a ``dask.array`` (N, n_m).
+
+    Columns are gathered into one chunk (rows keep their chunking, unless
+    the columns were split too: then rows are rechunked to Dask's default
+    size). Runs on ``client`` if given, else on the current Dask scheduler.
+    ``keep_violations`` is off by default: it brings N counts back to the caller.
+    """
+    y, thresholds = _checked(measurements, thresholds)
+    arr = predictions if isinstance(predictions, da.Array) else da.asarray(predictions)
+    if arr.ndim != 2 or arr.shape[1] != y.shape[0]:
+        raise ValueError(
+            f"predictions: expected a 2-D array with {y.shape[0]} columns (one per sensor, as in "
+            f"measurements), got shape {arr.shape}"
+        )
+    if arr.dtype.kind not in "iufb":
+        raise TypeError(f"predictions: expected a numeric array of predictions, got dtype {arr.dtype}")
+    if keep_violations and not diagnostics:
+        raise ValueError("keep_violations: expected False when diagnostics=False")
+    if len(arr.chunks[1]) > 1:
+        arr = arr.rechunk({0: "auto", 1: -1})
+    task = dask.delayed(_falsify_block, pure=True)
+    low, high = thresholds.low, thresholds.high
+    parts = [task(block, y, low, high, diagnostics, bool(keep_violations))
+             for block in arr.to_delayed().ravel()]
+    rows = None if any(np.isnan(c) for c in arr.chunks[0]) else arr.chunks[0]
+    return _merged(_compute(parts, client, progress, rows), y, thresholds)
+
+
+def falsify_model(model: Callable, parameters, measurements, thresholds: Thresholds, *, client=None,
+                  batch_size: int = 10_000, diagnostics: bool = True, keep_violations: bool = False,
+                  nan: str = "raise", progress: bool = True, window: int | None = None) -> FalsificationResult:
+    """:func:`edmf_rs.falsify_model` with the model evaluated on Dask workers,
+    one task per batch of parameter sets.
+
+    ``parameters`` is an (N, p) NumPy or Dask array (cut into ``batch_size``
+    rows; a Dask array's parameters are generated where they are used), or an
+    iterable of (n, p) batches, sent ``window`` batches at a time so the
+    caller never holds them all. ``model`` must be picklable (cloudpickle:
+    lambdas and closures are fine) and importable on the workers.
+    """
+    if not callable(model):
+        raise TypeError(f"model: expected a callable, got {type(model).__name__}")
+    if nan not in ("raise", "falsify"):
+        raise ValueError(f"nan: expected 'raise' or 'falsify', got {nan!r}")
+    if keep_violations and not diagnostics:
+        raise ValueError("keep_violations: expected False when diagnostics=False")
+    y, thresholds = _checked(measurements, thresholds)
+    batch_size = positive_int(batch_size, "batch_size")
+    task = dask.delayed(_model_block, pure=True)
+    args = (model, y, thresholds.low, thresholds.high, diagnostics, bool(keep_violations), nan)
+
+    if isinstance(parameters, (np.ndarray, da.Array)):
+        arr = parameters if isinstance(parameters, da.Array) else da.from_array(parameters, chunks=(batch_size, -1))
+        arr = arr[:, None] if arr.ndim == 1 else arr
+        if arr.ndim != 2:
+            raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
+        arr = arr.rechunk({0: batch_size, 1: -1})
+        offsets = np.concatenate([[0], np.cumsum(arr.chunks[0])[:-1]]).astype(int)
+        blocks = arr.to_delayed().ravel()
+        parts = [task(block, int(off), k, *args) for k, (block, off) in enumerate(zip(blocks, offsets))]
+        return _merged(_compute(parts, client, progress, arr.chunks[0]), y, thresholds)
+    if isinstance(parameters, (str, bytes)) or not isinstance(parameters, Iterable):
+        raise TypeError(
+            f"parameters: expected an (N, p) array or an iterable of (n, p) batches, got {type(parameters).__name__}"
+        )
+    window = positive_int(window, "window") if window is not None else 4 * max(_total_threads(client), 1)
+    results: list[FalsificationResult] = []
+    offset, width, pending, sizes = 0, None, [], []
+    with bar(None, progress) as progress_bar:
+        for k, batch in enumerate(parameters):
+            arr = np.asarray(batch, dtype=np.float64)
+            arr = arr[:, None] if arr.ndim == 1 else arr
+            if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
+                raise ValueError(f"parameters: batch {k} has shape {arr.shape}, expected (n, {width or 'p'})")
+            width = arr.shape[1]
+            pending.append(task(arr, offset, k, *args))
+            sizes.append(arr.shape[0])
+            offset += arr.shape[0]
+            if len(pending) == window:
+                results += _compute(pending, client, False)
+                progress_bar.update(sum(sizes))
+                pending, sizes = [], []
+        results += _compute(pending, client, False)
+        progress_bar.update(sum(sizes))
+    if not results:
+        return _merged([_model_block(np.empty((0, width or 0)), 0, 0, *args)], y, thresholds)
+    return _merged(results, y, thresholds)
+
+
+# -- on the workers --------------------------------------------------------
+
+def _falsify_block(block, y, low, high, diagnostics, keep_violations) -> FalsificationResult:
+    _match_worker_threads()
+    y, low, high = _aligned(y, low, high)
+    acc = _core.Falsifier(y, low, high, diagnostics=diagnostics, keep_violations=keep_violations)
+    acc.update(as_chunk(block, y.shape[0]))
+    return from_accumulator(acc, y, Thresholds(low, high))
+
+
+def _model_block(params, offset, index, model, y, low, high, diagnostics, keep_violations, nan):
+    _match_worker_threads()
+    y, low, high = _aligned(y, low, high)
+    params = np.asarray(params, dtype=np.float64)
+    acc = _core.Falsifier(y, low, high, diagnostics=diagnostics, keep_violations=keep_violations)
+    if params.shape[0]:
+        preds = evaluate(model, params, offset, y.shape[0], nan, index)
+        acc.update(preds)
+    else:
+        preds = np.empty((0, y.shape[0]))
+    result = from_accumulator(acc, y, Thresholds(low, high))
+    local = result.candidate_indices
+    return replace(result, candidate_parameters=params[local], candidate_predictions=preds[local])
+
+
+def _aligned(*vectors: np.ndarray) -> list[np.ndarray]:
+    # Arrays unpickled from out-of-band buffers may be misaligned; the core
+    # constructor wants contiguous, aligned float64.
+    return [np.require(v, dtype=np.float64, requirements=["C", "A"]) for v in vectors]
+
+
+def _match_worker_threads() -> None:
+    """Sizes the Rust pool to this ``distributed`` worker's threads."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):
+        return  # not on a distributed worker: keep the process's own setting
+    _size_pool(worker)
+
+
+def _size_pool(dask_worker) -> None:
+    # Called by client.run with the worker as argument (get_worker() only
+    # works inside tasks).
+    n = dask_worker.state.nthreads
+    if _core.get_num_threads() != n:
+        _core.set_num_threads(n)
+
+
+# -- on the caller ----------------------------------------------------------
+
+def _checked(measurements, thresholds) -> tuple[np.ndarray, Thresholds]:
+    if not isinstance(thresholds, Thresholds):
+        raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
+    return finite_vector(measurements, "measurements", n=thresholds.n_sensors), thresholds
+
+
+def _client(client):
+    if client is not None:
+        return client
+    try:
+        from distributed import default_client
+
+        return default_client()
+    except (ImportError, ValueError):
+        return None
+
+
+def _compute(tasks: list, client, progress: bool, rows=None) -> list:
+    """Results of ``tasks`` in order, on ``client`` (or the default one)."""
+    if not tasks:
+        return []
+    client = _client(client)
+    if client is None:
+        return list(dask.compute(*tasks))
+    from distributed import as_completed
+
+    client.run(_size_pool)  # every worker, even those this run leaves idle
+    futures = client.compute(tasks)
+    counts = [int(r) for r in rows] if rows is not None else [1] * len(futures)
+    size = {f.key: c for f, c in zip(futures, counts)}
+    with bar(int(sum(size.values())), progress) as progress_bar:
+        for future in as_completed(futures):
+            progress_bar.update(size[future.key])
+    return client.gather(futures)
+
+
+def _total_threads(client) -> int:
+    client = _client(client)
+    if client is None:
+        return os.cpu_count() or 1
+    return sum(client.nthreads().values())
+
+
+def _merged(parts: list[FalsificationResult], y: np.ndarray, thresholds: Thresholds) -> FalsificationResult:
+    result = concatenate(parts)
+    arrays = {name: _readonly(getattr(result, name)) for name in
+              ("candidate_indices", "per_sensor_falsified", "falsified_only_by", "n_violated",
+               "candidate_parameters", "candidate_predictions") if getattr(result, name) is not None}
+    return replace(result, thresholds=thresholds, measurements=y, **arrays)

@@ -1,0 +1,113 @@
+"""edmf_rs.dask on a real multi-process LocalCluster gives exactly the
+in-process result; Dask stays an optional dependency."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import dask.array as da
+import edmf_rs
+import edmf_rs.dask as edask
+import numpy as np
+import pytest
+from distributed import Client, LocalCluster
+from edmf_rs import Thresholds
+
+N_M = 8
+
+
+def _case(n=30_011, seed=2):
+    rng = np.random.default_rng(seed)
+    predictions = rng.normal(0.0, 1.0, (n, N_M))
+    predictions[rng.random(n) < 0.6] *= 0.3
+    predictions[11::503, 4] = np.nan
+    return predictions, np.zeros(N_M), Thresholds(np.full(N_M, -1.4), np.full(N_M, 1.4))
+
+
+def _model(theta):
+    i = np.arange(N_M)
+    return theta[:, :1] * (1.0 + 0.1 * i) + theta[:, 1:2] * np.cos(i)
+
+
+def _same(got, want):
+    assert got.n_instances == want.n_instances
+    for name in ("candidate_indices", "per_sensor_falsified", "falsified_only_by", "n_invalid", "n_violated",
+                 "candidate_parameters", "candidate_predictions"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert (a is None) == (b is None), name
+        if a is not None:
+            np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+@pytest.fixture(scope="module")
+def client():
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as c:
+        yield c
+
+
+def test_dask_array_matches_in_process(client):
+    predictions, y, t = _case()
+    for chunks in ((4_000, N_M), (7_001, 3), (30_011, N_M)):  # split columns are gathered first
+        arr = da.from_array(predictions, chunks=chunks)
+        _same(edask.falsify(arr, y, t, client=client), edmf_rs.falsify(predictions, y, t, keep_violations=False))
+    arr = da.from_array(predictions.astype(np.float32), chunks=(5_000, N_M))
+    _same(edask.falsify(arr, y, t, keep_violations=True),  # on the default (current) client
+          edmf_rs.falsify(predictions.astype(np.float32), y, t, keep_violations=True))
+    screened = edask.falsify(arr, y, t, diagnostics=False, client=client)
+    np.testing.assert_array_equal(screened.candidate_indices,
+                                  edmf_rs.falsify(predictions.astype(np.float32), y, t).candidate_indices)
+    assert screened.thresholds is t
+
+
+def test_worker_pools_match_worker_threads(client):
+    predictions, y, t = _case(1_000)
+    edask.falsify(da.from_array(predictions, chunks=(500, N_M)), y, t, client=client)
+    assert set(client.run(edmf_rs.get_num_threads).values()) == {1}
+
+
+def test_model_on_workers_matches_in_process(client):
+    theta = np.random.default_rng(4).uniform(-1.0, 1.0, (20_000, 2))
+    _, y, t = _case()
+    want = edmf_rs.falsify_model(_model, theta, y, t, batch_size=1_500)
+    assert 0 < want.n_candidates < len(theta)
+    _same(edask.falsify_model(_model, theta, y, t, batch_size=1_500, client=client), want)
+    _same(edask.falsify_model(_model, da.from_array(theta, chunks=(3_000, 2)), y, t, client=client), want)
+    batches = (theta[i:i + 1_234] for i in range(0, len(theta), 1_234))
+    _same(edask.falsify_model(lambda b: _model(b), batches, y, t, client=client, window=3), want)
+
+
+def test_model_error_on_a_worker_names_the_batch(client):
+    theta = np.random.default_rng(4).uniform(-1.0, 1.0, (4_000, 2))
+    _, y, t = _case()
+
+    def fails(batch):
+        if batch[0, 0] == theta[3_000, 0]:
+            raise RuntimeError("mesh failed")
+        return _model(batch)
+
+    with pytest.raises(RuntimeError, match="mesh failed") as info:
+        edask.falsify_model(fails, theta, y, t, batch_size=1_000, client=client)
+    assert "batch 3, instances 3000..3999" in " ".join(info.value.__notes__)
+    with pytest.raises(ValueError, match=r"expected a 2-D array with 8 columns"):
+        edask.falsify(da.zeros((10, 3)), y, t, client=client)
+
+
+def test_local_scheduler_without_distributed(monkeypatch):
+    monkeypatch.setattr(edask, "_client", lambda client: None)
+    predictions, y, t = _case(5_000)
+    arr = da.from_array(predictions, chunks=(1_000, 4))
+    _same(edask.falsify(arr, y, t), edmf_rs.falsify(predictions, y, t, keep_violations=False))
+    theta = np.random.default_rng(4).uniform(-1.0, 1.0, (3_000, 2))
+    _same(edask.falsify_model(_model, iter(np.array_split(theta, 5)), y, t, window=2),
+          edmf_rs.falsify_model(_model, theta, y, t))
+
+
+def test_dask_is_optional():
+    code = "import sys, edmf_rs; assert 'dask' not in sys.modules and 'distributed' not in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)
+    code = ("import sys; sys.modules['dask'] = None\n"
+            "try:\n    import edmf_rs.dask\nexcept ImportError as e:\n    print(e)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
+    assert "pip install edmf_rs[dask]" in out
