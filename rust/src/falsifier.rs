@@ -151,10 +151,7 @@ impl Falsifier {
                     self.screen_plan = Some(ScreenPlan::new(&self.bounds, &t.per_sensor));
                 }
             }
-            let base = self.n_instances + first as u64;
-            self.candidates.extend(
-                out.iter().enumerate().filter(|(_, &v)| v == 0).map(|(i, _)| base + i as u64),
-            );
+            collect_candidates(out, self.n_instances + first as u64, &mut self.candidates, pool);
             if stop() {
                 self.candidates.truncate(kept_candidates);
                 self.violations.truncate(kept_violations);
@@ -165,6 +162,31 @@ impl Falsifier {
         self.n_instances += rows as u64;
         Ok(())
     }
+}
+
+/// Appends `base + i` for every `out[i] == 0`, in order, in parallel: count
+/// per block, prefix-sum the counts, then each block writes its own slice.
+fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>, pool: &ThreadPool) {
+    pool.install(|| {
+        let counts: Vec<usize> =
+            out.par_chunks(BLOCK_ROWS).map(|o| o.iter().filter(|&&v| v == 0).count()).collect();
+        let start = candidates.len();
+        candidates.resize(start + counts.iter().sum::<usize>(), 0);
+        let mut rest = &mut candidates[start..];
+        let mut slices = Vec::with_capacity(counts.len());
+        for &c in &counts {
+            let (head, tail) = rest.split_at_mut(c);
+            slices.push(head);
+            rest = tail;
+        }
+        out.par_chunks(BLOCK_ROWS).zip(slices).enumerate().for_each(|(k, (o, dst))| {
+            let first = base + (k * BLOCK_ROWS) as u64;
+            let found = o.iter().enumerate().filter(|(_, &v)| v == 0).map(|(i, _)| first + i as u64);
+            for (d, c) in dst.iter_mut().zip(found) {
+                *d = c;
+            }
+        });
+    })
 }
 
 fn diagnose_parallel<T: Prediction>(

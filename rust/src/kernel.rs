@@ -10,7 +10,7 @@
 use crate::matrix::Matrix;
 
 #[cfg(target_arch = "x86_64")]
-use crate::simd::{self, Lanes};
+use crate::simd::Lanes;
 #[cfg(not(target_arch = "x86_64"))]
 /// Stand-in for the SIMD loads, which exist on x86-64 only.
 pub trait Lanes {}
@@ -49,6 +49,19 @@ pub struct SensorBounds {
 }
 
 impl SensorBounds {
+    /// True if any of these sensors rejects the instance whose prediction at
+    /// column j is `prediction(j)`; stops at the first that does.
+    #[inline(always)]
+    fn rejects(&self, prediction: impl Fn(usize) -> f64) -> bool {
+        let sensors = self.column.iter().zip(&self.measured).zip(self.low.iter().zip(&self.high));
+        for ((&j, &y), (&lo, &hi)) in sensors {
+            if outside(prediction(j), y, lo, hi) {
+                return true;
+            }
+        }
+        false
+    }
+
     pub fn new(measured: &[f64], low: &[f64], high: &[f64]) -> Self {
         SensorBounds {
             column: (0..measured.len()).collect(),
@@ -111,7 +124,7 @@ impl Tally {
 }
 
 #[inline(always)]
-fn outside(prediction: f64, measured: f64, low: f64, high: f64) -> bool {
+pub(crate) fn outside(prediction: f64, measured: f64, low: f64, high: f64) -> bool {
     let residual = prediction - measured; // Eq. 8 / Eq. 14
     !((residual >= low) & (residual <= high)) // NaN is outside
 }
@@ -176,35 +189,8 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
     (whole..k).any(|j| outside(row[j].to_f64(), y[j], lo[j], hi[j]))
 }
 
-/// Row test of the vector kernels, finished with the portable loop for the
-/// last `k % 4` sensors.
-#[cfg(target_arch = "x86_64")]
-#[inline]
-#[target_feature(enable = "avx2")]
-fn diagnose_row_avx2<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool) {
-    // SAFETY: AVX2 is enabled here; `b` and `counts` have one entry per sensor.
-    let (mut n, mut nan, done) = unsafe { simd::diagnose_row(row, b, counts) };
-    for j in done..row.len() {
-        let p = row[j].to_f64();
-        let v = outside(p, b.measured[j], b.low[j], b.high[j]);
-        counts[j] += v as u64;
-        n += v as u32;
-        nan |= p.is_nan();
-    }
-    (n, nan)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[inline]
-#[target_feature(enable = "avx2")]
-fn row_rejected_avx2<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
-    // SAFETY: AVX2 is enabled here; `b` has one entry per sensor.
-    let (rejected, done) = unsafe { simd::row_rejected(row, b) };
-    rejected || (done..row.len()).any(|j| outside(row[j].to_f64(), b.measured[j], b.low[j], b.high[j]))
-}
-
 #[inline(always)]
-fn diagnose_impl<T: Prediction>(
+pub(crate) fn diagnose_impl<T: Prediction>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],
@@ -239,22 +225,18 @@ fn diagnose_impl<T: Prediction>(
 }
 
 #[inline(always)]
-fn screen_impl<T: Prediction>(
+pub(crate) fn screen_impl<T: Prediction>(
     m: Matrix<'_, T>,
     plan: &ScreenPlan,
     out: &mut [u32],
     row_kernel: impl Fn(&[T], &SensorBounds) -> bool,
 ) {
     let first = &plan.first;
-    let first_rejects = |get: &dyn Fn(usize) -> f64| {
-        first.column.iter().zip(&first.measured).zip(first.low.iter().zip(&first.high))
-            .any(|((&j, &y), (&lo, &hi))| outside(get(j), y, lo, hi))
-    };
     for (i, flag) in out.iter_mut().enumerate() {
         let rejected = match m.row_slice(i) {
-            Some(row) => first_rejects(&|j| row[j].to_f64()) || row_kernel(row, &plan.all),
+            Some(row) => first.rejects(|j| row[j].to_f64()) || row_kernel(row, &plan.all),
             None => {
-                first_rejects(&|j| m.get(i, j).to_f64())
+                first.rejects(|j| m.get(i, j).to_f64())
                     || (0..plan.all.len()).any(|j| {
                         outside(m.get(i, j).to_f64(), plan.all.measured[j], plan.all.low[j], plan.all.high[j])
                     })
@@ -280,56 +262,87 @@ impl ScreenPlan {
     pub fn new(bounds: &SensorBounds, rejections: &[u64]) -> Self {
         let mut order: Vec<usize> = (0..bounds.len()).collect();
         order.sort_by_key(|&j| std::cmp::Reverse(rejections[j]));
-        order.truncate(Self::FIRST.min(order.len()));
+        // A row of one or two vector groups is tested as fast in one pass.
+        let first = if bounds.len() <= 2 * LANES { 0 } else { Self::FIRST };
+        order.truncate(first.min(order.len()));
         ScreenPlan { first: bounds.reordered(&order), all: bounds.clone() }
     }
 }
 
-// The kernels are compiled twice: for the baseline target and with AVX2, chosen
-// at run time, so one wheel is fast on new CPUs and still runs on old ones.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn diagnose_avx2<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
-    diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row_avx2(row, b, counts))
+/// Instruction-set level of the row kernels. All levels give identical
+/// results; the fastest one the CPU runs is chosen at run time, so one build
+/// is fast on new CPUs and still runs on old ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Isa {
+    Portable,
+    Avx2,
+    Avx512,
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn screen_avx2<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_impl(m, plan, out, |row, b| row_rejected_avx2(row, b))
-}
+impl Isa {
+    /// Whether this CPU runs `self`.
+    pub fn supported(self) -> bool {
+        match self {
+            Isa::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("popcnt")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
 
-/// The portable kernels, for checking the vector ones against.
-pub fn diagnose_portable<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
-    diagnose_impl(m, b, out, tally, diagnose_row)
-}
+    /// Every level this CPU runs, slowest first.
+    pub fn available() -> Vec<Isa> {
+        [Isa::Portable, Isa::Avx2, Isa::Avx512].into_iter().filter(|i| i.supported()).collect()
+    }
 
-pub fn screen_portable<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_impl(m, plan, out, row_rejected)
+    /// The fastest level this CPU runs.
+    pub fn detect() -> Isa {
+        *Isa::available().last().unwrap_or(&Isa::Portable)
+    }
 }
 
 /// Writes the number of rejecting sensors of each row of `m` into `out` and
-/// adds the per-sensor counts to `tally`. `b` must be in column order.
-pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
+/// adds the per-sensor counts to `tally`. `b` must be in column order. An
+/// `isa` the CPU does not run falls back to the portable kernel.
+pub fn diagnose_with<T: Prediction>(isa: Isa, m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
     debug_assert_eq!(out.len(), m.rows());
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { diagnose_avx2(m, b, out, tally) };
+    match isa {
+        // SAFETY: the CPU runs the level (checked by `supported`).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::diagnose(m, b, out, tally) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::diagnose(m, b, out, tally) },
+        _ => diagnose_impl(m, b, out, tally, diagnose_row),
     }
-    diagnose_impl(m, b, out, tally, diagnose_row)
 }
 
 /// Writes 0 for candidates and 1 for falsified instances, stopping early in
 /// each row once a sensor rejects it.
-pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
+pub fn screen_with<T: Prediction>(isa: Isa, m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
     debug_assert_eq!(out.len(), m.rows());
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        return unsafe { screen_avx2(m, plan, out) };
+    match isa {
+        // SAFETY: the CPU runs the level (checked by `supported`).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::screen(m, plan, out) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::screen(m, plan, out) },
+        _ => screen_impl(m, plan, out, row_rejected),
     }
-    screen_impl(m, plan, out, row_rejected)
+}
+
+/// [`diagnose_with`] at the fastest level of this CPU.
+pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
+    diagnose_with(Isa::detect(), m, b, out, tally)
+}
+
+/// [`screen_with`] at the fastest level of this CPU.
+pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
+    screen_with(Isa::detect(), m, plan, out)
 }
 
 #[cfg(test)]
@@ -350,18 +363,23 @@ mod tests {
             let m32 = Matrix::row_major(&data32, rows, k).unwrap();
             let plan = ScreenPlan::new(&b, &vec![1; k]);
             let (mut a, mut c) = (vec![0u32; rows], vec![0u32; rows]);
-            let (mut ta, mut tc) = (Tally::zeros(k), Tally::zeros(k));
-            diagnose(m, &b, &mut a, &mut ta);
-            diagnose_portable(m, &b, &mut c, &mut tc);
-            assert_eq!((&a, &ta), (&c, &tc), "f64 diagnose, {k} sensors");
-            diagnose(m32, &b, &mut a, &mut ta);
-            diagnose_portable(m32, &b, &mut c, &mut tc);
-            assert_eq!((&a, &ta), (&c, &tc), "f32 diagnose, {k} sensors");
-            screen(m, &plan, &mut a);
-            screen_portable(m, &plan, &mut c);
-            assert_eq!(a, c, "screen, {k} sensors");
+            for isa in Isa::available() {
+                let (mut ta, mut tc) = (Tally::zeros(k), Tally::zeros(k));
+                diagnose_with(isa, m, &b, &mut a, &mut ta);
+                diagnose_with(Isa::Portable, m, &b, &mut c, &mut tc);
+                assert_eq!((&a, &ta), (&c, &tc), "{isa:?} f64 diagnose, {k} sensors");
+                diagnose_with(isa, m32, &b, &mut a, &mut ta);
+                diagnose_with(Isa::Portable, m32, &b, &mut c, &mut tc);
+                assert_eq!((&a, &ta), (&c, &tc), "{isa:?} f32 diagnose, {k} sensors");
+                screen_with(isa, m32, &plan, &mut a);
+                screen_with(Isa::Portable, m32, &plan, &mut c);
+                assert_eq!(a, c, "{isa:?} f32 screen, {k} sensors");
+                screen_with(isa, m, &plan, &mut a);
+                screen_with(Isa::Portable, m, &plan, &mut c);
+                assert_eq!(a, c, "{isa:?} screen, {k} sensors");
+            }
             let flags: Vec<u32> = (0..rows).map(|i| (c[i] > 0) as u32).collect();
-            diagnose_portable(m, &b, &mut c, &mut Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut c, &mut Tally::zeros(k));
             assert_eq!(flags, c.iter().map(|&n| (n > 0) as u32).collect::<Vec<_>>());
         }
     }

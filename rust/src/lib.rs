@@ -20,6 +20,6 @@ pub mod thresholds;
 
 pub use error::{EdmfError, Result};
 pub use falsifier::{Falsifier, Mode};
-pub use kernel::{Prediction, Tally};
+pub use kernel::{Isa, Prediction, Tally};
 pub use matrix::Matrix;
 pub use thresholds::{min_samples, shortest_interval, shortest_intervals, Thresholds};
