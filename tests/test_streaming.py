@@ -356,3 +356,10 @@ def test_progress_bar_on_streams_and_off_on_request(tmp_path, monkeypatch, capsy
     edmf_rs.falsify(iter([predictions]), y, t, progress=False)
     edmf_rs.falsify_model(_model, theta, ym, tm, progress=False)
     assert "falsifying" not in capsys.readouterr().err
+
+
+def test_falsify_model_with_no_parameter_sets_keeps_the_parameter_width():
+    t = edmf_rs.Thresholds([-1.0], [1.0])
+    r = edmf_rs.falsify_model(lambda th: th[:, :1], np.empty((0, 3)), [0.0], t, progress=False)
+    assert r.n_instances == 0
+    assert r.candidate_parameters.shape == (0, 3) and r.candidate_predictions.shape == (0, 1)

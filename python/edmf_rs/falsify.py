@@ -128,7 +128,7 @@ def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds) -> F
         thresholds=thresholds,
         measurements=measurements,
         n_instances=int(acc.n_instances),
-        candidate_indices=_readonly(acc.candidates().view(np.int64)),  # indices < 2**63: no copy
+        candidate_indices=_readonly(acc.take_candidates().view(np.int64)),  # moved, indices < 2**63: no copy
         per_sensor_falsified=None if tally is None else _readonly(tally[0].astype(np.int64)),
         falsified_only_by=None if tally is None else _readonly(tally[1].astype(np.int64)),
         n_invalid=None if tally is None else int(tally[2]),

@@ -159,6 +159,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
     tail: list = [None]  # (index, parameter row) of the last instance falsified
     n_params = ckpt.extra.get("n_parameters") if ckpt else None
+    if n_params is None and isinstance(parameters, np.ndarray) and parameters.ndim == 2:
+        n_params = parameters.shape[1]  # known even when there are no rows
 
     def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
         # Runs on the worker thread, which signals never interrupt: the

@@ -97,6 +97,11 @@ impl Falsifier {
         &self.candidates
     }
 
+    /// Takes the candidate indices, leaving the accumulator without them.
+    pub fn take_candidates(&mut self) -> Vec<u64> {
+        std::mem::take(&mut self.candidates)
+    }
+
     /// Per-sensor diagnostics; `None` when screening (not every sensor is visited).
     pub fn tally(&self) -> Option<&Tally> {
         (self.mode == Mode::Diagnose).then_some(&self.tally)

@@ -78,7 +78,7 @@ fn mahalanobis_squared<'py>(
     covariance: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Vector<'py, f64>> {
     let view = matrix_view(&points, "points")?;
-    let mean = mean.as_slice()?.to_vec();
+    let mean = mean.as_array().to_vec();
     let cov: Vec<f64> = covariance.as_array().iter().copied().collect();
     let pool = pool::current()?;
     let d = detached(py, |_| edmf_core::ellipse::mahalanobis_squared(view, &mean, &cov, &pool))?;
@@ -102,10 +102,11 @@ impl Falsifier {
         diagnostics: bool,
         keep_violations: bool,
     ) -> PyResult<Self> {
-        let thresholds =
-            Thresholds::new(low.as_slice()?.to_vec(), high.as_slice()?.to_vec()).map_err(core_err)?;
+        // Copies of n_m values: any layout works (e.g. arrays unpickled on a Dask worker).
+        let vector = |a: PyReadonlyArray1<'_, f64>| a.as_array().to_vec();
+        let thresholds = Thresholds::new(vector(low), vector(high)).map_err(core_err)?;
         let mode = if diagnostics { Mode::Diagnose } else { Mode::Screen };
-        let inner = edmf_core::Falsifier::new(measurements.as_slice()?, &thresholds, mode, keep_violations)
+        let inner = edmf_core::Falsifier::new(&vector(measurements), &thresholds, mode, keep_violations)
             .map_err(core_err)?;
         Ok(Falsifier { inner })
     }
@@ -140,6 +141,11 @@ impl Falsifier {
     #[getter]
     fn n_candidates(&self) -> usize {
         self.inner.candidates().len()
+    }
+
+    /// All candidate indices, moved out (no copy); the accumulator keeps none.
+    fn take_candidates<'py>(&mut self, py: Python<'py>) -> Vector<'py, u64> {
+        self.inner.take_candidates().into_pyarray(py)
     }
 
     /// Candidate indices from position `start` of the candidate list on.
