@@ -5,7 +5,8 @@
 //! "typical" falsifies over 90 % of them.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use edmf_core::{shortest_intervals, Falsifier, Matrix, Mode, Thresholds};
+use edmf_core::kernel::{diagnose_with, screen_with, ScreenPlan, SensorBounds};
+use edmf_core::{shortest_intervals, Falsifier, Isa, Matrix, Mode, Tally, Thresholds};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -61,6 +62,32 @@ fn falsify(c: &mut Criterion) {
     group.finish();
 }
 
+/// The row kernels alone, one thread, at every instruction-set level this CPU
+/// runs (portable, AVX2, AVX-512), so their ratios show in one run.
+fn isa_levels(c: &mut Criterion) {
+    let (n, n_m) = (100_000, 50);
+    let data = values(n * n_m);
+    let m = Matrix::row_major(&data, n, n_m).unwrap();
+    let b = SensorBounds::new(&vec![0.0; n_m], &vec![-10.0; n_m], &vec![10.0; n_m]);
+    let plan = ScreenPlan::new(&b, &vec![0; n_m]);
+    let mut out = vec![0u32; n];
+    let mut group = c.benchmark_group("isa_worst_case");
+    group.throughput(Throughput::Elements(n as u64));
+    for isa in Isa::available() {
+        group.bench_function(BenchmarkId::new("diagnose", format!("{isa:?}")), |bench| {
+            bench.iter(|| {
+                let mut t = Tally::zeros(n_m);
+                diagnose_with(isa, black_box(m), &b, &mut out, &mut t);
+                t.invalid
+            })
+        });
+        group.bench_function(BenchmarkId::new("screen", format!("{isa:?}")), |bench| {
+            bench.iter(|| screen_with(isa, black_box(m), &plan, &mut out))
+        });
+    }
+    group.finish();
+}
+
 fn thresholds(c: &mut Criterion) {
     let (n, n_m) = (100_000, 10);
     let data = values(n * n_m);
@@ -79,6 +106,6 @@ fn thresholds(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
-    targets = falsify, thresholds
+    targets = falsify, isa_levels, thresholds
 }
 criterion_main!(benches);

@@ -187,14 +187,18 @@ def best(fn, repeat: int, setup=None) -> float:
 
 # -- table -----------------------------------------------------------------------
 
-HEADER = f"{'N':>11} {'n_m':>4} {'case':>7} {'src':>4}  {'method':<34} {'time s':>8} {'inst/s':>10} {'x probe':>8}"
+HEADER = (f"{'N':>11} {'n_m':>4} {'case':>7} {'src':>4}  {'method':<34} {'time s':>8} {'inst/s':>10} "
+          f"{'x probe':>8} {'x numpy':>8}")
 
 
-def row(n, n_m, case, src, method, seconds, n_timed, probe_rate):
+def row(n, n_m, case, src, method, seconds, n_timed, probe_rate, numpy_rate=0.0):
+    """One table line; ratios against the read probe and the NumPy rule (one-shot in
+    memory, chunked for files), all measured in this run."""
     rate = n_timed / seconds if seconds else float("nan")
     ratio = rate / probe_rate if probe_rate else float("nan")
+    vs_numpy = rate / numpy_rate if numpy_rate else float("nan")
     line = (f"{n:>11,} {n_m:>4} {case:>7} {src:>4}  {method:<34} {seconds:>8.3f} {rate:>10.3g} "
-            f"{ratio:>8.2f}")
+            f"{ratio:>8.2f} {vs_numpy:>8.1f}")
     print(line, flush=True)
     return rate
 
@@ -209,18 +213,22 @@ def bench_case(n, n_m, case, args, tmp: Path):
     if nbytes <= args.mem_budget:
         p, y, t = in_memory(n, n_m, case, dtype)
         probe = row(n, n_m, case, "mem", "probe: np.sum", best(lambda: np.sum(p), args.repeat), n, 0)
+        numpy = 0.0
         if 3.2 * nbytes <= args.mem_budget:
-            row(n, n_m, case, "mem", "numpy rule, one-shot", best(lambda: numpy_rule(p, y, t), args.repeat), n, probe)
+            numpy = row(n, n_m, case, "mem", "numpy rule, one-shot", best(lambda: numpy_rule(p, y, t), args.repeat),
+                        n, probe)
         else:
             skipped(n, n_m, case, "mem", "numpy rule, one-shot", "temporaries exceed the memory budget")
-        row(n, n_m, case, "mem", "numpy rule, chunked", best(lambda: numpy_chunked(p, y, t), args.repeat), n, probe)
+        chunked = row(n, n_m, case, "mem", "numpy rule, chunked", best(lambda: numpy_chunked(p, y, t), args.repeat),
+                      n, probe, numpy)
+        numpy = numpy or chunked
         sub = p[:min(n, args.loop_n)]
         row(n, n_m, case, "mem", f"python loop ({len(sub):,} inst.)", best(lambda: python_loop(sub, y, t), 1),
-            len(sub), probe)
+            len(sub), probe, numpy)
         runs = [(th, d) for d in (True, False) for th in args.threads]
         for th, d in runs:
             row(n, n_m, case, "mem", f"edmf_rs {th} thr, diagnostics={d}",
-                best(lambda th=th, d=d: edmf(p, y, t, th, d), args.repeat), n, probe)
+                best(lambda th=th, d=d: edmf(p, y, t, th, d), args.repeat), n, probe, numpy)
         del p
         return
     if nbytes > args.max_file:
@@ -231,12 +239,12 @@ def bench_case(n, n_m, case, args, tmp: Path):
         y, t = to_file(path, n, n_m, case, dtype)
         probe = row(n, n_m, case, "file", "probe: readinto chunks", best(lambda: file_read(path), args.repeat), n, 0)
         skipped(n, n_m, case, "file", "numpy rule, one-shot", "does not fit the memory budget")
-        row(n, n_m, case, "file", "numpy rule, chunked (readinto)",
-            best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe)
+        numpy = row(n, n_m, case, "file", "numpy rule, chunked (readinto)",
+                    best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe)
         for d in (True, False):
             for th in args.threads:
                 row(n, n_m, case, "file", f"edmf_rs {th} thr, diagnostics={d}",
-                    best(lambda th=th, d=d: edmf(path, y, t, th, d), args.repeat), n, probe)
+                    best(lambda th=th, d=d: edmf(path, y, t, th, d), args.repeat), n, probe, numpy)
     finally:
         path.unlink(missing_ok=True)
 
@@ -286,12 +294,12 @@ def bench_streaming(args, tmp: Path):
         y, t = to_file(path, n, n_m, "typical", np.float32)
         print(f"  (file written in {time.perf_counter() - start:.1f} s)", flush=True)
         probe = row(n, n_m, "typical", "file", "numpy readinto chunks", best(lambda: file_read(path), args.repeat), n, 0)
-        row(n, n_m, "typical", "file", "numpy rule, chunked (readinto)",
-            best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe)
+        numpy = row(n, n_m, "typical", "file", "numpy rule, chunked (readinto)",
+                    best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe)
         for d in (True, False):
             for th in args.threads:
                 row(n, n_m, "typical", "file", f"edmf_rs {th} thr, diagnostics={d}",
-                    best(lambda th=th, d=d: edmf(str(path), y, t, th, d), args.repeat), n, probe)
+                    best(lambda th=th, d=d: edmf(str(path), y, t, th, d), args.repeat), n, probe, numpy)
         # The kernel alone on the same data, in memory: the ceiling for streaming.
         m = min(n, 20_000_000)
         with open(path, "rb") as fh:

@@ -136,7 +136,7 @@ const LANES: usize = 8;
 /// sensor's rejection to `counts`. Branch-free over fixed-width lanes (exact
 /// chunks, so no bounds checks) so that it vectorises.
 #[inline(always)]
-fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool) {
+fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
     let k = row.len();
     let (y, lo, hi, counts) = (&b.measured[..k], &b.low[..k], &b.high[..k], &mut counts[..k]);
     let mut n = [0u64; LANES];
@@ -163,8 +163,11 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
         n[0] += v;
         nan[0] |= p.is_nan() as u64;
     }
-    (n.iter().sum::<u64>() as u32, nan.iter().any(|&x| x != 0))
+    (n.iter().sum::<u64>() as u32, nan.iter().any(|&x| x != 0), UNKNOWN)
 }
+
+/// "First rejecting sensor not tracked": the caller looks for it if it needs it.
+pub(crate) const UNKNOWN: usize = usize::MAX;
 
 /// True if any sensor of a contiguous row rejects it; exits at the first
 /// lane group holding a rejection.
@@ -195,10 +198,10 @@ pub(crate) fn diagnose_impl<T: Prediction>(
     b: &SensorBounds,
     out: &mut [u32],
     tally: &mut Tally,
-    row_kernel: impl Fn(&[T], &SensorBounds, &mut [u64]) -> (u32, bool),
+    row_kernel: impl Fn(&[T], &SensorBounds, &mut [u64]) -> (u32, bool, usize),
 ) {
     for (i, n_out) in out.iter_mut().enumerate() {
-        let (n, nan) = match m.row_slice(i) {
+        let (n, nan, first) = match m.row_slice(i) {
             Some(row) => row_kernel(row, b, &mut tally.per_sensor),
             None => {
                 let (mut n, mut nan) = (0u32, false);
@@ -209,16 +212,21 @@ pub(crate) fn diagnose_impl<T: Prediction>(
                     n += v as u32;
                     nan |= p.is_nan();
                 }
-                (n, nan)
+                (n, nan, UNKNOWN)
             }
         };
-        if n == 1 {
-            // Rare enough to afford a second look at the row to find which one.
-            let j = (0..b.len())
+        // Branch-free for the vector kernels, which know the first rejecting
+        // sensor (outcomes are random row to row: a branch would mispredict).
+        let j = if first != UNKNOWN {
+            first
+        } else if n == 1 {
+            (0..b.len())
                 .find(|&j| outside(m.get(i, j).to_f64(), b.measured[j], b.low[j], b.high[j]))
-                .unwrap_or(0);
-            tally.only_by[j] += 1;
-        }
+                .unwrap_or(0)
+        } else {
+            0
+        };
+        tally.only_by[j] += (n == 1) as u64;
         tally.invalid += nan as u64;
         *n_out = n;
     }
@@ -288,7 +296,9 @@ impl Isa {
             Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
-                std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("popcnt")
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("popcnt")
+                    && std::arch::is_x86_feature_detected!("bmi1")
             }
             #[cfg(not(target_arch = "x86_64"))]
             _ => false,

@@ -1,6 +1,6 @@
 //! AVX2: four sensors per vector; the last `k % 4` sensors use the portable loop.
 
-use crate::kernel::{diagnose_impl, outside, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally};
+use crate::kernel::{diagnose_impl, outside, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, UNKNOWN};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
@@ -14,21 +14,27 @@ unsafe fn outside4(p: __m256d, b: &SensorBounds, j: usize) -> __m256d {
     _mm256_xor_pd(_mm256_and_pd(ge, le), _mm256_castsi256_pd(_mm256_set1_epi64x(-1)))
 }
 
-/// Rejecting-sensor count and NaN flag of a row; adds every rejection to `counts`.
+/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row; adds
+/// every rejection to `counts`.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool) {
+fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
     let k = row.len();
     assert!(b.len() >= k && counts.len() >= k);
     super::prefetch_ahead(row);
     let whole = k - k % 4;
     // SAFETY: AVX2 is enabled; every index below `whole` is within `row`, `b` and `counts`.
+    let mut first = UNKNOWN;
     let (mut n, mut nan) = unsafe {
         let mut n = _mm256_setzero_si256();
         let mut nan = _mm256_setzero_pd();
         for j in (0..whole).step_by(4) {
             let p = T::load4(row.as_ptr().add(j));
-            let out = _mm256_castpd_si256(outside4(p, b, j));
+            let rejects = outside4(p, b, j);
+            let bits = _mm256_movemask_pd(rejects);
+            let found = j + bits.trailing_zeros() as usize;
+            first = if first == UNKNOWN && bits != 0 { found } else { first };
+            let out = _mm256_castpd_si256(rejects);
             // An all-ones lane is -1: subtracting it counts one rejection.
             let c = counts.as_mut_ptr().add(j) as *mut __m256i;
             _mm256_storeu_si256(c, _mm256_sub_epi64(_mm256_loadu_si256(c), out));
@@ -42,11 +48,14 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     for j in whole..k {
         let p = row[j].to_f64();
         let v = outside(p, b.measured[j], b.low[j], b.high[j]);
+        if v && first == UNKNOWN {
+            first = j;
+        }
         counts[j] += v as u64;
         n += v as u32;
         nan |= p.is_nan();
     }
-    (n, nan)
+    (n, nan, first)
 }
 
 /// True if any sensor rejects the row; one branch per eight sensors.

@@ -1,7 +1,7 @@
 //! AVX-512F: eight sensors per vector, compares straight into mask registers,
 //! and masked loads for the last `k % 8` sensors, so no scalar tail.
 
-use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally};
+use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, UNKNOWN};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
@@ -24,15 +24,17 @@ fn prefix(n: usize) -> __mmask8 {
     ((1u16 << n) - 1) as __mmask8
 }
 
-/// Rejecting-sensor count and NaN flag of a row; adds every rejection to `counts`.
+/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row; adds
+/// every rejection to `counts`.
 #[inline]
-#[target_feature(enable = "avx512f,popcnt")]
-fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool) {
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
     let k = row.len();
     assert!(b.len() >= k && counts.len() >= k);
     super::prefetch_ahead(row);
     let mut n = 0u32;
     let mut nan: __mmask8 = 0;
+    let mut first = UNKNOWN;
     let mut j = 0;
     // SAFETY: AVX-512F is enabled; full groups stay below `k`, and the last
     // group reads and writes only the lanes below `k` (masked).
@@ -46,36 +48,43 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
             let total = _mm512_mask_add_epi64(_mm512_maskz_loadu_epi64(lanes, c), out, _mm512_maskz_loadu_epi64(lanes, c), ones);
             _mm512_mask_storeu_epi64(c, lanes, total);
             n += out.count_ones();
+            let found = j + out.trailing_zeros() as usize;
+            first = if first == UNKNOWN && out != 0 { found } else { first };
             nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes, p, p);
             j += 8;
         }
     }
-    (n, nan != 0)
+    (n, nan != 0, first)
 }
 
-/// True if any sensor rejects the row; one branch per eight sensors.
+/// True if any sensor rejects the row; one branch per sixteen sensors (a row
+/// of up to 16 sensors is one predictable branch).
 #[inline]
 #[target_feature(enable = "avx512f")]
 fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
     let k = row.len();
     assert!(b.len() >= k);
     super::prefetch_ahead(row);
-    let mut j = 0;
-    // SAFETY: as in `diagnose_row`: masked access below `k` only.
-    unsafe {
-        while j < k {
-            let lanes = prefix((k - j).min(8));
+    let group = |j: usize| {
+        // SAFETY: AVX-512F is enabled; only lanes below `k` are read (masked).
+        unsafe {
+            let lanes = prefix(k.saturating_sub(j).min(8));
             let p = if lanes == 0xFF { T::load8(row.as_ptr().add(j)) } else { T::load8_masked(lanes, row.as_ptr().add(j)) };
-            if outside8(p, b, j, lanes) != 0 {
-                return true;
-            }
-            j += 8;
+            outside8(p, b, j, lanes)
         }
+    };
+    let mut j = 0;
+    while j < k {
+        let rejects = if j + 8 < k { group(j) | group(j + 8) } else { group(j) };
+        if rejects != 0 {
+            return true;
+        }
+        j += 16;
     }
     false
 }
 
-#[target_feature(enable = "avx512f,popcnt")]
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
     diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
 }
