@@ -241,8 +241,10 @@ def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: floa
             if math.isfinite(sensitivity.smallest_phi) and sensitivity.smallest_phi < 1.0:
                 exact = "" if sensitivity.phi_exact else " (to the grid)"
                 text += f", and some instance at phi >= {sensitivity.smallest_phi:.6g}{exact}"
-            else:
+            elif sensitivity.phi_exact:
                 text += "; no phi below 1 admits any instance"
+            else:
+                text += "; no phi that the Monte Carlo samples resolve admits any instance"
             out.append(text + ".")
         return out
     share = 100.0 * loo.n_candidates / loo.n_instances
