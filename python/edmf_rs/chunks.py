@@ -4,6 +4,7 @@ optionally from a given instance on (to resume a run)."""
 
 from __future__ import annotations
 
+import abc
 import os
 from collections.abc import Callable, Iterable, Iterator
 
@@ -39,15 +40,15 @@ def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
     return arr
 
 
-class Source:
+class Source(abc.ABC):
     """Where predictions come from; ``n_instances`` is None when unknown."""
 
     n_instances: int | None = None
 
+    @abc.abstractmethod
     def chunks(self, start: int = 0, check: RowCheck | None = None) -> Iterator[np.ndarray]:
         """Checked chunks in instance order from instance ``start`` on. When
         resuming, ``check`` is given rows 0 and ``start - 1``."""
-        raise NotImplementedError
 
 
 class ArraySource(Source):
