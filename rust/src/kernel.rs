@@ -198,7 +198,7 @@ pub(crate) fn diagnose_impl<T: Prediction>(
     b: &SensorBounds,
     out: &mut [u32],
     tally: &mut Tally,
-    row_kernel: impl Fn(&[T], &SensorBounds, &mut [u64]) -> (u32, bool, usize),
+    mut row_kernel: impl FnMut(&[T], &SensorBounds, &mut [u64]) -> (u32, bool, usize),
 ) {
     for (i, n_out) in out.iter_mut().enumerate() {
         let (n, nan, first) = match m.row_slice(i) {
@@ -259,7 +259,7 @@ pub(crate) fn screen_impl<T: Prediction>(
 #[derive(Debug, Clone)]
 pub struct ScreenPlan {
     first: SensorBounds,
-    all: SensorBounds,
+    pub(crate) all: SensorBounds,
 }
 
 impl ScreenPlan {

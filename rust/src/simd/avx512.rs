@@ -84,12 +84,106 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
     false
 }
 
+/// Bounds of a row of at most 16 sensors, held in registers for a whole block
+/// of rows: short rows are otherwise dominated by reloading them every row.
+struct ShortRow {
+    measured: [__m512d; 2],
+    low: [__m512d; 2],
+    high: [__m512d; 2],
+    lanes: [__mmask8; 2],
+    k: usize,
+}
+
+impl ShortRow {
+    const MAX: usize = 16;
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn new(b: &SensorBounds) -> ShortRow {
+        let k = b.len();
+        assert!(k <= Self::MAX);
+        let lanes = [prefix(k.min(8)), prefix(k.saturating_sub(8))];
+        // SAFETY: AVX-512F is enabled; masked loads read only sensors below `k`.
+        let load = |v: &[f64], g: usize| unsafe { _mm512_maskz_loadu_pd(lanes[g], v.as_ptr().add(8 * g)) };
+        ShortRow {
+            measured: [load(&b.measured, 0), load(&b.measured, 1)],
+            low: [load(&b.low, 0), load(&b.low, 1)],
+            high: [load(&b.high, 0), load(&b.high, 1)],
+            lanes,
+            k,
+        }
+    }
+
+    /// (predictions, rejecting lanes) of lane group `g` (sensors 8g..8g+8).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn group<T: Prediction>(&self, row: &[T], g: usize) -> (__m512d, __mmask8) {
+        assert!(row.len() == self.k);
+        let lanes = self.lanes[g];
+        // SAFETY: AVX-512F is enabled; only the lanes below `k` are read.
+        unsafe {
+            let at = row.as_ptr().add(8 * g);
+            let p = if lanes == 0xFF { T::load8(at) } else { T::load8_masked(lanes, at) };
+            let r = _mm512_sub_pd(p, self.measured[g]);
+            let inside = _mm512_mask_cmp_pd_mask::<_CMP_GE_OQ>(lanes, r, self.low[g])
+                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(r, self.high[g]);
+            (p, !inside & lanes)
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn rejected<T: Prediction>(&self, row: &[T]) -> bool {
+        super::prefetch_ahead(row);
+        let rejects = self.group(row, 0).1 | if self.k > 8 { self.group(row, 1).1 } else { 0 };
+        rejects != 0
+    }
+
+    /// Like `diagnose_row`, but the per-sensor counts stay in registers
+    /// (`counts`, one lane per sensor) until the block is done.
+    #[inline]
+    #[target_feature(enable = "avx512f,popcnt,bmi1")]
+    fn diagnose<T: Prediction>(&self, row: &[T], counts: &mut [__m512i; 2]) -> (u32, bool, usize) {
+        super::prefetch_ahead(row);
+        let (mut n, mut nan, mut first) = (0u32, 0 as __mmask8, UNKNOWN);
+        for g in 0..1 + (self.k > 8) as usize {
+            let (p, out) = self.group(row, g);
+            counts[g] = _mm512_mask_add_epi64(counts[g], out, counts[g], _mm512_set1_epi64(1));
+            nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(self.lanes[g], p, p);
+            let found = 8 * g + out.trailing_zeros() as usize;
+            first = if first == UNKNOWN && out != 0 { found } else { first };
+            n += out.count_ones();
+        }
+        (n, nan != 0, first)
+    }
+}
+
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
-    diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
+    if b.len() <= ShortRow::MAX {
+        let short = ShortRow::new(b);
+        let mut counts = [_mm512_setzero_si512(); 2];
+        diagnose_impl(m, b, out, t, |row, _, _| short.diagnose(row, &mut counts));
+        let mut lanes = [0u64; 16];
+        // SAFETY: AVX-512F is enabled; `lanes` holds the two vectors.
+        unsafe {
+            _mm512_storeu_epi64(lanes.as_mut_ptr() as *mut i64, counts[0]);
+            _mm512_storeu_epi64(lanes.as_mut_ptr().add(8) as *mut i64, counts[1]);
+        }
+        for (total, add) in t.per_sensor.iter_mut().zip(lanes) {
+            *total += add;
+        }
+    } else {
+        diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
+    }
 }
 
 #[target_feature(enable = "avx512f")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_impl(m, plan, out, |row, b| row_rejected(row, b))
+    if plan.all.len() <= ShortRow::MAX {
+        let short = ShortRow::new(&plan.all);
+        screen_impl(m, plan, out, |row, _| short.rejected(row))
+    } else {
+        screen_impl(m, plan, out, |row, b| row_rejected(row, b))
+    }
 }
