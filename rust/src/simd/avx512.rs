@@ -146,9 +146,10 @@ impl ShortRow {
     fn diagnose<T: Prediction>(&self, row: &[T], counts: &mut [__m512i; 2]) -> (u32, bool, usize) {
         super::prefetch_ahead(row);
         let (mut n, mut nan, mut first) = (0u32, 0 as __mmask8, UNKNOWN);
-        for g in 0..1 + (self.k > 8) as usize {
+        let groups = 1 + (self.k > 8) as usize;
+        for (g, count) in counts.iter_mut().enumerate().take(groups) {
             let (p, out) = self.group(row, g);
-            counts[g] = _mm512_mask_add_epi64(counts[g], out, counts[g], _mm512_set1_epi64(1));
+            *count = _mm512_mask_add_epi64(*count, out, *count, _mm512_set1_epi64(1));
             nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(self.lanes[g], p, p);
             let found = 8 * g + out.trailing_zeros() as usize;
             first = if first == UNKNOWN && out != 0 { found } else { first };
