@@ -19,11 +19,16 @@ fn values(n: usize) -> Vec<f64> {
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
-    (0..n).map(|_| (0..4).map(|_| uniform()).sum::<f64>() * 1.732 - 3.464).collect()
+    (0..n)
+        .map(|_| (0..4).map(|_| uniform()).sum::<f64>() * 1.732 - 3.464)
+        .collect()
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap()
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
 }
 
 fn falsify(c: &mut Criterion) {

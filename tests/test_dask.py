@@ -111,3 +111,22 @@ def test_dask_is_optional():
             "try:\n    import edmf_rs.dask\nexcept ImportError as e:\n    print(e)")
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
     assert "pip install edmf_rs[dask]" in out
+
+
+def test_model_batches_from_a_refilled_buffer_and_1d_parameters(client):
+    theta = np.random.default_rng(8).uniform(-1.0, 1.0, (4_000, 2))
+    _, y, t = _case()
+
+    def refilled():
+        buffer = np.empty((500, 2))
+        for first in range(0, len(theta), 500):
+            buffer[:] = theta[first:first + 500]
+            yield buffer
+
+    got = edask.falsify_model(_model, refilled(), y, t, client=client, window=8, progress=False)
+    _same(got, edmf_rs.falsify_model(_model, theta, y, t, progress=False))
+    one = theta[:, :1].ravel()
+    got = edask.falsify_model(lambda b: _model(np.hstack([b, b])), one, y, t, batch_size=700, client=client,
+                              progress=False)
+    want = edmf_rs.falsify_model(lambda b: _model(np.hstack([b, b])), one, y, t, batch_size=700, progress=False)
+    _same(got, want)

@@ -379,3 +379,19 @@ def test_model_checkpoint_with_violations_and_array_parameters(tmp_path):
                                  keep_violations=True)
     _same(got, want)
     assert got.candidate_predictions.dtype == np.float32
+
+
+def test_a_finished_checkpoint_refuses_other_inputs(tmp_path):
+    predictions, y, t = _case()
+    other = predictions.copy()
+    other[-1] += 1.0  # same shape, a different last instance
+    done = edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run", progress=False)
+    _same(edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run", progress=False), done)
+    with pytest.raises(ValueError, match="differs from the run saved"):
+        edmf_rs.falsify(other, y, t, checkpoint=tmp_path / "run", progress=False)
+    theta = _theta()
+    edmf_rs.falsify_model(_model, theta, y, t, checkpoint=tmp_path / "model", progress=False)
+    changed = theta.copy()
+    changed[-1] += 0.5
+    with pytest.raises(ValueError, match="differs from the run saved"):
+        edmf_rs.falsify_model(_model, changed, y, t, checkpoint=tmp_path / "model", progress=False)

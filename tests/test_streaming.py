@@ -363,3 +363,36 @@ def test_falsify_model_with_no_parameter_sets_keeps_the_parameter_width():
     r = edmf_rs.falsify_model(lambda th: th[:, :1], np.empty((0, 3)), [0.0], t, progress=False)
     assert r.n_instances == 0
     assert r.candidate_parameters.shape == (0, 3) and r.candidate_predictions.shape == (0, 1)
+
+
+def test_a_model_that_reuses_its_output_buffer_is_read_safely():
+    # Rust falsifies batch k while the model fills batch k+1: the batch must be a copy.
+    theta = np.random.default_rng(0).uniform(-2.0, 2.0, (60_000, 3))
+    y, t = np.zeros(3), Thresholds(-np.ones(3), np.ones(3))
+    buffer = np.empty((1_000, 3))
+
+    def model(batch):
+        buffer[: len(batch)] = batch
+        return buffer[: len(batch)]
+
+    r = edmf_rs.falsify_model(model, theta, y, t, batch_size=1_000, progress=False)
+    expected = reference.falsify(theta, y, t)
+    np.testing.assert_array_equal(r.candidate_indices, expected.candidate_indices)
+    np.testing.assert_array_equal(r.candidate_parameters, theta[expected.candidate_indices])
+    np.testing.assert_array_equal(r.candidate_predictions, theta[expected.candidate_indices])
+
+
+def test_memory_mapped_and_converted_arrays_go_chunk_by_chunk(tmp_path):
+    rng = np.random.default_rng(4)
+    p = (rng.normal(size=(5_000, 3)) * 100).astype(">i4")  # integers, big-endian: must be converted
+    path = tmp_path / "p.npy"
+    np.save(path, p)
+    mapped = np.load(path, mmap_mode="r")
+    t = Thresholds([-60.0] * 3, [60.0] * 3)
+    r = edmf_rs.falsify(mapped, np.zeros(3), t, chunk_rows=777, progress=False)
+    expected = reference.falsify(p.astype(np.float64), np.zeros(3), t)
+    np.testing.assert_array_equal(r.candidate_indices, expected.candidate_indices)
+    np.testing.assert_array_equal(r.per_sensor_falsified, expected.per_sensor_falsified)
+    assert r.n_violated is None  # no N-long array for a memory map by default
+    source = edmf_rs.chunks.open_source(mapped, 3)
+    assert source.chunk_rows is not None  # converted per chunk, not as a whole

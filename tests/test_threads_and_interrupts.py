@@ -54,3 +54,24 @@ def test_ctrl_c_interrupts_a_long_falsification():
     out, err = proc.communicate(timeout=60)  # a hang fails here
     assert proc.returncode == 3, (out, err)
     assert "interrupted" in out
+
+
+def test_running_out_of_memory_is_a_memory_error_not_an_abort():
+    # Address space capped just above what is mapped: the 50M candidates
+    # (400 MB) cannot be kept. Rust must report it, not abort the interpreter.
+    code = """
+        import resource, numpy as np, edmf_rs
+        edmf_rs.set_num_threads(1)
+        p = np.zeros((50_000_000, 1), dtype=np.float32)
+        t = edmf_rs.Thresholds([-1.0], [1.0])
+        edmf_rs.falsify(p[:10], [0.0], t)  # warm up: pool and code mapped
+        used = int(open("/proc/self/statm").read().split()[0]) * resource.getpagesize()
+        resource.setrlimit(resource.RLIMIT_AS, (used + 300 * 2**20, resource.RLIM_INFINITY))
+        try:
+            edmf_rs.falsify(p, [0.0], t, keep_violations=False)
+        except MemoryError as exc:
+            print("MemoryError:", exc)
+    """
+    out = run_python(code)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "MemoryError: out of memory keeping" in out.stdout

@@ -153,6 +153,22 @@ class Checkpoint:
                 "folder (or delete this one) to start over"
             )
 
+    def confirm_finished(self, remaining) -> None:
+        """Before a finished run's saved result is returned: ``remaining`` is the
+        input from instance ``n_done`` on (its skipped rows pass `verify_row`);
+        any row left means the input is not the one the run finished."""
+        try:
+            for block in remaining:
+                if len(block):
+                    raise ValueError(
+                        f"checkpoint: {self.folder} holds a finished run over {self.n_done} instances, but the "
+                        f"{self.input_name} have more; pass the same input, or another folder to start over"
+                    )
+        finally:
+            close = getattr(remaining, "close", None)
+            if close is not None:
+                close()
+
     def part_path(self, k: int, name: str) -> Path:
         return self.folder / f"part-{k:06d}.{name}.npy"
 

@@ -52,9 +52,19 @@ class Source(abc.ABC):
 
 
 class ArraySource(Source):
+    """An in-memory or memory-mapped array. Arrays the core reads in place are
+    passed whole; others (integers, other byte orders, a ``np.memmap``) are
+    converted chunk by chunk, so memory does not grow with N."""
+
     def __init__(self, arr, n_sensors: int, chunk_rows: int | None):
-        self.arr = as_chunk(arr, n_sensors)
-        self.n_instances = int(self.arr.shape[0])
+        arr = arr if isinstance(arr, np.ndarray) else np.asarray(arr)
+        as_chunk(arr[:0], n_sensors)  # dtype and shape checks, without converting anything
+        self.arr, self.n_sensors = arr, n_sensors
+        self.n_instances = int(arr.shape[0])
+        # A converted chunk is a new array (no base); a chunk read in place is a view of `arr`.
+        converted = as_chunk(arr[:1], n_sensors).base is None
+        if chunk_rows is None and (isinstance(arr, np.memmap) or converted):
+            chunk_rows = max(1024, npy.CHUNK_BYTES // max(1, n_sensors * arr.dtype.itemsize))
         self.chunk_rows = chunk_rows
 
     def chunks(self, start=0, check=None):
@@ -64,9 +74,9 @@ class ArraySource(Source):
             check(start - 1, arr[start - 1])
         step = self.chunk_rows or max(arr.shape[0] - start, 1)
         if start == 0 and arr.shape[0] == 0:
-            yield arr  # an empty run still meets the core once (it checks the width)
+            yield as_chunk(arr, self.n_sensors)  # an empty run still meets the core once (it checks the width)
         for first in range(start, arr.shape[0], step):
-            yield arr[first:first + step]
+            yield as_chunk(arr[first:first + step], self.n_sensors)
 
 
 class FileSource(Source):

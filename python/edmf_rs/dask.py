@@ -88,7 +88,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     args = (model, y, thresholds.low, thresholds.high, diagnostics, bool(keep_violations), nan)
 
     if isinstance(parameters, (np.ndarray, da.Array)):
-        arr = parameters if isinstance(parameters, da.Array) else da.from_array(parameters, chunks=(batch_size, -1))
+        arr = parameters if isinstance(parameters, da.Array) else da.from_array(parameters)
         arr = arr[:, None] if arr.ndim == 1 else arr
         if arr.ndim != 2:
             raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
@@ -106,7 +106,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     offset, width, pending, sizes = 0, None, [], []
     with bar(None, progress) as progress_bar:
         for k, batch in enumerate(parameters):
-            arr = np.asarray(batch, dtype=np.float64)
+            # A copy: batches wait in the window, and a generator may refill one buffer.
+            arr = np.array(batch, dtype=np.float64, copy=True)
             arr = arr[:, None] if arr.ndim == 1 else arr
             if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
                 raise ValueError(f"parameters: batch {k} has shape {arr.shape}, expected (n, {width or 'p'})")

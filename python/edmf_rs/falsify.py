@@ -45,7 +45,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         candidates only.
     keep_violations
         Keep the number of violated sensors of every instance (``n_violated``).
-        Default: yes for arrays and iterables, no for files.
+        Default: yes for arrays and iterables, no for files and memory maps.
     chunk_rows
         Rows per chunk when splitting an array or reading a file.
     progress
@@ -54,7 +54,10 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         A folder where the run saves its candidates and position as it goes
         (every ``checkpoint_every`` seconds, on Ctrl-C and at the end). Calling
         again with the same folder and inputs resumes after the last saved
-        chunk (or returns the finished result); other inputs are refused.
+        chunk (or returns the finished result); other inputs are refused
+        (checked by their measurements, thresholds, options, length and
+        first and last rows done; a finished run over an iterable returns its
+        saved result without reading the iterable again).
     """
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
@@ -66,7 +69,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     if chunk_rows is not None:
         chunk_rows = positive_int(chunk_rows, "chunk_rows")
     if keep_violations is None:
-        keep_violations = diagnostics and not isinstance(predictions, (str, os.PathLike))
+        keep_violations = diagnostics and not isinstance(predictions, (str, os.PathLike, np.memmap))
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
     keep_violations = bool(keep_violations)
@@ -80,7 +83,9 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every),
                           ("n_violated",) if keep_violations else ())
         if ckpt.complete:
-            return ckpt.result(thresholds, y)
+            if source.n_instances is not None:  # arrays and files: two rows read to confirm
+                ckpt.confirm_finished(source.chunks(ckpt.n_done, ckpt.verify_row))
+            return ckpt.result(thresholds, y)  # an iterable is not drained again
     start = ckpt.n_done if ckpt else 0
 
     acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,

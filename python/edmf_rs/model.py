@@ -85,6 +85,10 @@ def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, na
             f"expected ({batch.shape[0]}, {n_sensors}) (one prediction per sensor)"
         )
     chunk = as_chunk(predictions, n_sensors, name=f"model ({where})")
+    if np.may_share_memory(chunk, predictions):
+        # Rust reads this batch while the model computes the next one: a model
+        # that reuses its output buffer would overwrite it under the reader.
+        chunk = chunk.copy()
     if nan == "raise":
         bad = np.flatnonzero(np.isnan(chunk).any(axis=1))
         if bad.size:
@@ -150,6 +154,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every), fields + ("parameters", "predictions"),
                           input_name="parameters")
         if ckpt.complete:
+            if n_total is not None:  # an array: two rows read to confirm; an iterable is not drained again
+                ckpt.confirm_finished(parameter_batches(parameters, batch_size, ckpt.n_done, ckpt.verify_row)[0])
             return ckpt.result(thresholds, y)
     start = ckpt.n_done if ckpt else 0
     batches, total = parameter_batches(parameters, batch_size, start, ckpt.verify_row if ckpt else None)

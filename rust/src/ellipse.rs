@@ -20,7 +20,10 @@ pub fn mahalanobis_squared(
     if n == 0 || points.cols() != n {
         return Err(EdmfError::invalid(
             "points",
-            format!("one column per dimension of the mean ({n}), got {}", points.cols()),
+            format!(
+                "one column per dimension of the mean ({n}), got {}",
+                points.cols()
+            ),
         ));
     }
     if covariance.len() != n * n {
@@ -61,8 +64,8 @@ mod tests {
         let rho: f64 = 0.9;
         let cov = [1.0, rho, rho, 1.0];
         let pts = [1.0, -1.0, 0.5, 0.5, 0.0, 0.0];
-        let d = mahalanobis_squared(Matrix::row_major(&pts, 3, 2).unwrap(), &[0.0, 0.0], &cov, &pool)
-            .unwrap();
+        let d =
+            mahalanobis_squared(Matrix::row_major(&pts, 3, 2).unwrap(), &[0.0, 0.0], &cov, &pool).unwrap();
         for (i, got) in d.iter().enumerate() {
             let (x, y) = (pts[2 * i], pts[2 * i + 1]);
             let want = (x * x - 2.0 * rho * x * y + y * y) / (1.0 - rho * rho);

@@ -42,12 +42,7 @@ pub struct Falsifier {
 }
 
 impl Falsifier {
-    pub fn new(
-        measured: &[f64],
-        thresholds: &Thresholds,
-        mode: Mode,
-        keep_violations: bool,
-    ) -> Result<Self> {
+    pub fn new(measured: &[f64], thresholds: &Thresholds, mode: Mode, keep_violations: bool) -> Result<Self> {
         let n_m = thresholds.n_sensors();
         if measured.len() != n_m {
             return Err(EdmfError::invalid(
@@ -128,7 +123,10 @@ impl Falsifier {
         if chunk.cols() != n_m {
             return Err(EdmfError::invalid(
                 "predictions",
-                format!("{n_m} columns (one per sensor), got a chunk of width {}", chunk.cols()),
+                format!(
+                    "{n_m} columns (one per sensor), got a chunk of width {}",
+                    chunk.cols()
+                ),
             ));
         }
         let rows = chunk.rows();
@@ -146,6 +144,7 @@ impl Falsifier {
                 (Mode::Diagnose, _) => {
                     chunk_tally.add(&diagnose_parallel(slab, &self.bounds, out, pool));
                     if self.keep_violations {
+                        reserve(&mut self.violations, out.len(), "per-instance violation counts")?;
                         self.violations.extend_from_slice(out);
                     }
                 }
@@ -156,7 +155,7 @@ impl Falsifier {
                     self.screen_plan = Some(ScreenPlan::new(&self.bounds, &t.per_sensor));
                 }
             }
-            collect_candidates(out, self.n_instances + first as u64, &mut self.candidates, pool);
+            collect_candidates(out, self.n_instances + first as u64, &mut self.candidates, pool)?;
             if stop() {
                 self.candidates.truncate(kept_candidates);
                 self.violations.truncate(kept_violations);
@@ -171,12 +170,16 @@ impl Falsifier {
 
 /// Appends `base + i` for every `out[i] == 0`, in order, in parallel: count
 /// per block, prefix-sum the counts, then each block writes its own slice.
-fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>, pool: &ThreadPool) {
+fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>, pool: &ThreadPool) -> Result<()> {
     pool.install(|| {
-        let counts: Vec<usize> =
-            out.par_chunks(BLOCK_ROWS).map(|o| o.iter().filter(|&&v| v == 0).count()).collect();
+        let counts: Vec<usize> = out
+            .par_chunks(BLOCK_ROWS)
+            .map(|o| o.iter().filter(|&&v| v == 0).count())
+            .collect();
         let start = candidates.len();
-        candidates.resize(start + counts.iter().sum::<usize>(), 0);
+        let found = counts.iter().sum::<usize>();
+        reserve(candidates, found, "candidate indices")?;
+        candidates.resize(start + found, 0);
         let mut rest = &mut candidates[start..];
         let mut slices = Vec::with_capacity(counts.len());
         for &c in &counts {
@@ -184,14 +187,29 @@ fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>, pool: &
             slices.push(head);
             rest = tail;
         }
-        out.par_chunks(BLOCK_ROWS).zip(slices).enumerate().for_each(|(k, (o, dst))| {
-            let first = base + (k * BLOCK_ROWS) as u64;
-            let found = o.iter().enumerate().filter(|(_, &v)| v == 0).map(|(i, _)| first + i as u64);
-            for (d, c) in dst.iter_mut().zip(found) {
-                *d = c;
-            }
-        });
+        out.par_chunks(BLOCK_ROWS)
+            .zip(slices)
+            .enumerate()
+            .for_each(|(k, (o, dst))| {
+                let first = base + (k * BLOCK_ROWS) as u64;
+                let found = o
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &v)| v == 0)
+                    .map(|(i, _)| first + i as u64);
+                for (d, c) in dst.iter_mut().zip(found) {
+                    *d = c;
+                }
+            });
+        Ok(())
     })
+}
+
+/// Room for `more` elements, or an error (an allocation failure would abort
+/// the whole process, Python included).
+fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
+    v.try_reserve(more)
+        .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
 fn diagnose_parallel<T: Prediction>(
@@ -286,7 +304,9 @@ mod tests {
         let mut f = Falsifier::new(&[0.0, 0.0], &thr, Mode::Diagnose, true).unwrap();
         let p = pool(1);
         let bad = [0.0; 3];
-        assert!(f.update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false).is_err());
+        assert!(f
+            .update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false)
+            .is_err());
         let data = vec![0.0; 2 * 2_000_000];
         let m = Matrix::row_major(&data, 2_000_000, 2).unwrap();
         assert_eq!(f.update(m, &p, &mut || true), Err(EdmfError::Interrupted));

@@ -53,7 +53,11 @@ impl SensorBounds {
     /// column j is `prediction(j)`; stops at the first that does.
     #[inline(always)]
     fn rejects(&self, prediction: impl Fn(usize) -> f64) -> bool {
-        let sensors = self.column.iter().zip(&self.measured).zip(self.low.iter().zip(&self.high));
+        let sensors = self
+            .column
+            .iter()
+            .zip(&self.measured)
+            .zip(self.low.iter().zip(&self.high));
         for ((&j, &y), (&lo, &hi)) in sensors {
             if outside(prediction(j), y, lo, hi) {
                 return true;
@@ -104,7 +108,11 @@ pub struct Tally {
 
 impl Tally {
     pub fn zeros(n_sensors: usize) -> Self {
-        Tally { per_sensor: vec![0; n_sensors], only_by: vec![0; n_sensors], invalid: 0 }
+        Tally {
+            per_sensor: vec![0; n_sensors],
+            only_by: vec![0; n_sensors],
+            invalid: 0,
+        }
     }
 
     pub fn merge(mut self, other: Tally) -> Tally {
@@ -246,7 +254,12 @@ pub(crate) fn screen_impl<T: Prediction>(
             None => {
                 first.rejects(|j| m.get(i, j).to_f64())
                     || (0..plan.all.len()).any(|j| {
-                        outside(m.get(i, j).to_f64(), plan.all.measured[j], plan.all.low[j], plan.all.high[j])
+                        outside(
+                            m.get(i, j).to_f64(),
+                            plan.all.measured[j],
+                            plan.all.low[j],
+                            plan.all.high[j],
+                        )
                     })
             }
         };
@@ -273,7 +286,10 @@ impl ScreenPlan {
         // A row of one or two vector groups is tested as fast in one pass.
         let first = if bounds.len() <= 2 * LANES { 0 } else { Self::FIRST };
         order.truncate(first.min(order.len()));
-        ScreenPlan { first: bounds.reordered(&order), all: bounds.clone() }
+        ScreenPlan {
+            first: bounds.reordered(&order),
+            all: bounds.clone(),
+        }
     }
 }
 
@@ -307,7 +323,10 @@ impl Isa {
 
     /// Every level this CPU runs, slowest first.
     pub fn available() -> Vec<Isa> {
-        [Isa::Portable, Isa::Avx2, Isa::Avx512].into_iter().filter(|i| i.supported()).collect()
+        [Isa::Portable, Isa::Avx2, Isa::Avx512]
+            .into_iter()
+            .filter(|i| i.supported())
+            .collect()
     }
 
     /// The fastest level this CPU runs.
@@ -319,7 +338,13 @@ impl Isa {
 /// Writes the number of rejecting sensors of each row of `m` into `out` and
 /// adds the per-sensor counts to `tally`. `b` must be in column order. An
 /// `isa` the CPU does not run falls back to the portable kernel.
-pub fn diagnose_with<T: Prediction>(isa: Isa, m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], tally: &mut Tally) {
+pub fn diagnose_with<T: Prediction>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    tally: &mut Tally,
+) {
     debug_assert_eq!(out.len(), m.rows());
     match isa {
         // SAFETY: the CPU runs the level (checked by `supported`).
@@ -365,9 +390,16 @@ mod tests {
     fn vector_kernels_match_portable_ones() {
         let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
         for k in 1..=21 {
-            let b = SensorBounds::new(&vec![0.25; k], &vec![-0.25; k], &vec![0.75; k]);
+            // Bounds differ from sensor to sensor, so a lane reading another
+            // sensor's bounds shows up.
+            let y: Vec<f64> = (0..k).map(|j| 0.25 * (j % 3) as f64).collect();
+            let lo: Vec<f64> = (0..k).map(|j| -0.25 - 0.25 * (j % 2) as f64).collect();
+            let hi: Vec<f64> = (0..k).map(|j| 0.5 + 0.25 * (j % 4) as f64).collect();
+            let b = SensorBounds::new(&y, &lo, &hi);
             let rows = 64;
-            let data: Vec<f64> = (0..rows * k).map(|i| specials[(i * 7 + i / 5) % specials.len()]).collect();
+            let data: Vec<f64> = (0..rows * k)
+                .map(|i| y[i % k] + specials[(i * 7 + i / 5) % specials.len()])
+                .collect();
             let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
             let m = Matrix::row_major(&data, rows, k).unwrap();
             let m32 = Matrix::row_major(&data32, rows, k).unwrap();
@@ -391,6 +423,16 @@ mod tests {
             let flags: Vec<u32> = (0..rows).map(|i| (c[i] > 0) as u32).collect();
             diagnose_with(Isa::Portable, m, &b, &mut c, &mut Tally::zeros(k));
             assert_eq!(flags, c.iter().map(|&n| (n > 0) as u32).collect::<Vec<_>>());
+            let transposed: Vec<f64> = (0..k)
+                .flat_map(|j| (0..rows).map(move |i| (i, j)))
+                .map(|(i, j)| data[i * k + j])
+                .collect();
+            let mf = Matrix::col_major(&transposed, rows, k).unwrap();
+            let (mut tf, mut tc) = (Tally::zeros(k), Tally::zeros(k));
+            let mut f = vec![0u32; rows];
+            diagnose(mf, &b, &mut f, &mut tf);
+            diagnose_with(Isa::Portable, m, &b, &mut c, &mut tc);
+            assert_eq!((&f, &tf), (&c, &tc), "column-major, {k} sensors");
         }
     }
 

@@ -42,7 +42,13 @@ impl<'a, T: Copy> Matrix<'a, T> {
                 }
             }
         }
-        Ok(Matrix { data, rows, cols, row_stride, col_stride })
+        Ok(Matrix {
+            data,
+            rows,
+            cols,
+            row_stride,
+            col_stride,
+        })
     }
 
     /// A C-ordered (row-major, contiguous) view.
@@ -100,7 +106,13 @@ impl<'a, T: Copy> Matrix<'a, T> {
         } else {
             &self.data[start * self.row_stride..]
         };
-        Matrix { data, rows, cols: self.cols, row_stride: self.row_stride, col_stride: self.col_stride }
+        Matrix {
+            data,
+            rows,
+            cols: self.cols,
+            row_stride: self.row_stride,
+            col_stride: self.col_stride,
+        }
     }
 }
 

@@ -22,11 +22,18 @@ impl Thresholds {
         if low.len() != high.len() {
             return Err(EdmfError::invalid(
                 "thresholds",
-                format!("low and high of equal length, got {} and {}", low.len(), high.len()),
+                format!(
+                    "low and high of equal length, got {} and {}",
+                    low.len(),
+                    high.len()
+                ),
             ));
         }
         if low.is_empty() {
-            return Err(EdmfError::invalid("thresholds", "at least one sensor (n_m >= 1), got 0"));
+            return Err(EdmfError::invalid(
+                "thresholds",
+                "at least one sensor (n_m >= 1), got 0",
+            ));
         }
         for (i, (&l, &h)) in low.iter().zip(&high).enumerate() {
             if !l.is_finite() || !h.is_finite() {
@@ -63,7 +70,10 @@ pub fn check_probability(probability: f64) -> Result<()> {
     if probability.is_finite() && probability > 0.0 && probability < 1.0 {
         Ok(())
     } else {
-        Err(EdmfError::invalid("probability", format!("a value in (0, 1), got {probability}")))
+        Err(EdmfError::invalid(
+            "probability",
+            format!("a value in (0, 1), got {probability}"),
+        ))
     }
 }
 
@@ -116,10 +126,17 @@ pub fn shortest_intervals(
     let needed = min_samples(probability)?;
     let n = samples.rows();
     if samples.cols() == 0 {
-        return Err(EdmfError::invalid("combined", "at least one sensor column, got 0"));
+        return Err(EdmfError::invalid(
+            "combined",
+            "at least one sensor column, got 0",
+        ));
     }
     if n < needed {
-        return Err(EdmfError::TooFewSamples { needed, got: n, probability });
+        return Err(EdmfError::TooFewSamples {
+            needed,
+            got: n,
+            probability,
+        });
     }
     let mut low = Vec::with_capacity(samples.cols());
     let mut high = Vec::with_capacity(samples.cols());
@@ -207,7 +224,10 @@ mod tests {
         let a = shortest_intervals(m, 0.9, &pool(1), &mut || false).unwrap();
         let b = shortest_intervals(m, 0.9, &pool(2), &mut || false).unwrap();
         assert_eq!(a, b);
-        assert!(a.low()[1] <= 1e-6, "skewed column's interval must start at its mode");
+        assert!(
+            a.low()[1] <= 1e-6,
+            "skewed column's interval must start at its mode"
+        );
         assert!((a.high()[0] - a.low()[0] - 0.9).abs() < 2e-3);
     }
 
@@ -216,7 +236,9 @@ mod tests {
         let data = vec![0.0; 50];
         let m = Matrix::row_major(&data, 50, 1).unwrap();
         match shortest_intervals(m, 0.99, &pool(1), &mut || false) {
-            Err(EdmfError::TooFewSamples { needed: 100, got: 50, .. }) => {}
+            Err(EdmfError::TooFewSamples {
+                needed: 100, got: 50, ..
+            }) => {}
             other => panic!("expected TooFewSamples, got {other:?}"),
         }
     }

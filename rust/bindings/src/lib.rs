@@ -10,7 +10,7 @@ mod views;
 
 use edmf_core::{EdmfError, Mode, Thresholds};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use views::matrix_view;
 
@@ -35,9 +35,10 @@ fn detached<R: Send>(
         work(&mut stop)
     });
     result.map_err(|err| match err {
-        EdmfError::Interrupted => {
-            raised.take().unwrap_or_else(|| PyKeyboardInterrupt::new_err("interrupted"))
-        }
+        EdmfError::Interrupted => raised
+            .take()
+            .unwrap_or_else(|| PyKeyboardInterrupt::new_err("interrupted")),
+        EdmfError::OutOfMemory { .. } => PyMemoryError::new_err(err.to_string()),
         other => PyValueError::new_err(other.to_string()),
     })
 }
@@ -55,8 +56,9 @@ fn shortest_intervals<'py>(
 ) -> PyResult<(Vector<'py, f64>, Vector<'py, f64>)> {
     let view = matrix_view(&samples, "combined")?;
     let pool = pool::current()?;
-    let thresholds =
-        detached(py, |stop| edmf_core::shortest_intervals(view, probability, &pool, stop))?;
+    let thresholds = detached(py, |stop| {
+        edmf_core::shortest_intervals(view, probability, &pool, stop)
+    })?;
     Ok((
         thresholds.low().to_vec().into_pyarray(py),
         thresholds.high().to_vec().into_pyarray(py),
@@ -81,7 +83,9 @@ fn mahalanobis_squared<'py>(
     let mean = mean.as_array().to_vec();
     let cov: Vec<f64> = covariance.as_array().iter().copied().collect();
     let pool = pool::current()?;
-    let d = detached(py, |_| edmf_core::ellipse::mahalanobis_squared(view, &mean, &cov, &pool))?;
+    let d = detached(py, |_| {
+        edmf_core::ellipse::mahalanobis_squared(view, &mean, &cov, &pool)
+    })?;
     Ok(d.into_pyarray(py))
 }
 
@@ -156,12 +160,13 @@ impl Falsifier {
     }
 
     /// `(per_sensor_falsified, falsified_only_by, n_invalid)`, or None when screening.
-    fn tally<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> Option<(Vector<'py, u64>, Vector<'py, u64>, u64)> {
+    fn tally<'py>(&self, py: Python<'py>) -> Option<(Vector<'py, u64>, Vector<'py, u64>, u64)> {
         self.inner.tally().map(|t| {
-            (t.per_sensor.clone().into_pyarray(py), t.only_by.clone().into_pyarray(py), t.invalid)
+            (
+                t.per_sensor.clone().into_pyarray(py),
+                t.only_by.clone().into_pyarray(py),
+                t.invalid,
+            )
         })
     }
 

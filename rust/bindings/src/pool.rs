@@ -47,7 +47,9 @@ pub fn current() -> PyResult<Arc<ThreadPool>> {
 #[pyfunction]
 pub fn set_num_threads(n: i64) -> PyResult<()> {
     if n < 1 {
-        return Err(PyValueError::new_err(format!("n: expected a positive number of threads, got {n}")));
+        return Err(PyValueError::new_err(format!(
+            "n: expected a positive number of threads, got {n}"
+        )));
     }
     let pool = build(n as usize)?;
     *POOL.lock().unwrap_or_else(|e| e.into_inner()) = Some(pool);

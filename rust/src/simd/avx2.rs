@@ -1,6 +1,8 @@
 //! AVX2: four sensors per vector; the last `k % 4` sensors use the portable loop.
 
-use crate::kernel::{diagnose_impl, outside, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, UNKNOWN};
+use crate::kernel::{
+    diagnose_impl, outside, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, UNKNOWN,
+};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
@@ -33,7 +35,11 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
             let rejects = outside4(p, b, j);
             let bits = _mm256_movemask_pd(rejects);
             let found = j + bits.trailing_zeros() as usize;
-            first = if first == UNKNOWN && bits != 0 { found } else { first };
+            first = if first == UNKNOWN && bits != 0 {
+                found
+            } else {
+                first
+            };
             let out = _mm256_castpd_si256(rejects);
             // An all-ones lane is -1: subtracting it counts one rejection.
             let c = counts.as_mut_ptr().add(j) as *mut __m256i;

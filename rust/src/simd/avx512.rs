@@ -14,7 +14,8 @@ unsafe fn outside8(p: __m512d, b: &SensorBounds, j: usize, lanes: __mmask8) -> _
     let lo = _mm512_maskz_loadu_pd(lanes, b.low.as_ptr().add(j));
     let hi = _mm512_maskz_loadu_pd(lanes, b.high.as_ptr().add(j));
     let r = _mm512_sub_pd(p, y);
-    let inside = _mm512_mask_cmp_pd_mask::<_CMP_GE_OQ>(lanes, r, lo) & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(r, hi);
+    let inside =
+        _mm512_mask_cmp_pd_mask::<_CMP_GE_OQ>(lanes, r, lo) & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(r, hi);
     !inside & lanes
 }
 
@@ -42,14 +43,27 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
         let ones = _mm512_set1_epi64(1);
         while j < k {
             let lanes = prefix((k - j).min(8));
-            let p = if lanes == 0xFF { T::load8(row.as_ptr().add(j)) } else { T::load8_masked(lanes, row.as_ptr().add(j)) };
+            let p = if lanes == 0xFF {
+                T::load8(row.as_ptr().add(j))
+            } else {
+                T::load8_masked(lanes, row.as_ptr().add(j))
+            };
             let out = outside8(p, b, j, lanes);
             let c = counts.as_mut_ptr().add(j) as *mut i64;
-            let total = _mm512_mask_add_epi64(_mm512_maskz_loadu_epi64(lanes, c), out, _mm512_maskz_loadu_epi64(lanes, c), ones);
+            let total = _mm512_mask_add_epi64(
+                _mm512_maskz_loadu_epi64(lanes, c),
+                out,
+                _mm512_maskz_loadu_epi64(lanes, c),
+                ones,
+            );
             _mm512_mask_storeu_epi64(c, lanes, total);
             n += out.count_ones();
             let found = j + out.trailing_zeros() as usize;
-            first = if first == UNKNOWN && out != 0 { found } else { first };
+            first = if first == UNKNOWN && out != 0 {
+                found
+            } else {
+                first
+            };
             nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes, p, p);
             j += 8;
         }
@@ -69,13 +83,21 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
         // SAFETY: AVX-512F is enabled; only lanes below `k` are read (masked).
         unsafe {
             let lanes = prefix(k.saturating_sub(j).min(8));
-            let p = if lanes == 0xFF { T::load8(row.as_ptr().add(j)) } else { T::load8_masked(lanes, row.as_ptr().add(j)) };
+            let p = if lanes == 0xFF {
+                T::load8(row.as_ptr().add(j))
+            } else {
+                T::load8_masked(lanes, row.as_ptr().add(j))
+            };
             outside8(p, b, j, lanes)
         }
     };
     let mut j = 0;
     while j < k {
-        let rejects = if j + 8 < k { group(j) | group(j + 8) } else { group(j) };
+        let rejects = if j + 8 < k {
+            group(j) | group(j + 8)
+        } else {
+            group(j)
+        };
         if rejects != 0 {
             return true;
         }
@@ -104,7 +126,10 @@ impl ShortRow {
         assert!(k <= Self::MAX);
         let lanes = [prefix(k.min(8)), prefix(k.saturating_sub(8))];
         // SAFETY: AVX-512F is enabled; masked loads read only sensors below `k`.
-        let load = |v: &[f64], g: usize| unsafe { _mm512_maskz_loadu_pd(lanes[g], v.as_ptr().add(8 * g)) };
+        // `wrapping_add`: group 1 of a row of fewer than 8 sensors points past the
+        // slice; its mask is empty, so nothing is read there.
+        let load =
+            |v: &[f64], g: usize| unsafe { _mm512_maskz_loadu_pd(lanes[g], v.as_ptr().wrapping_add(8 * g)) };
         ShortRow {
             measured: [load(&b.measured, 0), load(&b.measured, 1)],
             low: [load(&b.low, 0), load(&b.low, 1)],
@@ -122,8 +147,12 @@ impl ShortRow {
         let lanes = self.lanes[g];
         // SAFETY: AVX-512F is enabled; only the lanes below `k` are read.
         unsafe {
-            let at = row.as_ptr().add(8 * g);
-            let p = if lanes == 0xFF { T::load8(at) } else { T::load8_masked(lanes, at) };
+            let at = row.as_ptr().wrapping_add(8 * g);
+            let p = if lanes == 0xFF {
+                T::load8(at)
+            } else {
+                T::load8_masked(lanes, at)
+            };
             let r = _mm512_sub_pd(p, self.measured[g]);
             let inside = _mm512_mask_cmp_pd_mask::<_CMP_GE_OQ>(lanes, r, self.low[g])
                 & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(r, self.high[g]);
@@ -152,7 +181,11 @@ impl ShortRow {
             *count = _mm512_mask_add_epi64(*count, out, *count, _mm512_set1_epi64(1));
             nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(self.lanes[g], p, p);
             let found = 8 * g + out.trailing_zeros() as usize;
-            first = if first == UNKNOWN && out != 0 { found } else { first };
+            first = if first == UNKNOWN && out != 0 {
+                found
+            } else {
+                first
+            };
             n += out.count_ones();
         }
         (n, nan != 0, first)

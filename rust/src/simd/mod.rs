@@ -75,6 +75,9 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn load8_masked(mask: __mmask8, p: *const f32) -> __m512d {
         // A masked load never touches the lanes it leaves out.
-        _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_maskz_loadu_ps(mask as __mmask16, p)))
+        _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_maskz_loadu_ps(
+            mask as __mmask16,
+            p,
+        )))
     }
 }
