@@ -329,9 +329,10 @@ impl Isa {
             .collect()
     }
 
-    /// The fastest level this CPU runs.
+    /// The fastest level this CPU runs (detected once; asked for every block of rows).
     pub fn detect() -> Isa {
-        *Isa::available().last().unwrap_or(&Isa::Portable)
+        static DETECTED: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *DETECTED.get_or_init(|| *Isa::available().last().unwrap_or(&Isa::Portable))
     }
 }
 
