@@ -73,7 +73,7 @@ fn isa_levels(c: &mut Criterion) {
     let (n, n_m) = (100_000, 50);
     let data = values(n * n_m);
     let m = Matrix::row_major(&data, n, n_m).unwrap();
-    let b = SensorBounds::new(&vec![0.0; n_m], &vec![-10.0; n_m], &vec![10.0; n_m]);
+    let b = SensorBounds::new(&vec![0.0; n_m], &vec![-10.0; n_m], &vec![10.0; n_m]).unwrap();
     let plan = ScreenPlan::new(&b, &vec![0; n_m]);
     let mut out = vec![0u32; n];
     let mut group = c.benchmark_group("isa_worst_case");

@@ -330,6 +330,27 @@ def test_model_error_keeps_the_work_done(tmp_path):
           edmf_rs.falsify_model(_model, theta, y, t))
 
 
+def test_a_folder_serves_one_run_at_a_time(tmp_path):
+    theta = _theta(4_000)
+    _, y, t = _case()
+    folder = tmp_path / "run"
+    refused = []
+
+    def model(batch):
+        # A second run on the same folder while the first holds it is refused,
+        # and leaves the first run's work alone.
+        with pytest.raises(ValueError, match="in use by another run") as info:
+            edmf_rs.falsify(_model(batch), y, t, checkpoint=folder)
+        refused.append(str(info.value))
+        return _model(batch)
+
+    got = edmf_rs.falsify_model(model, theta, y, t, checkpoint=folder, batch_size=1_000)
+    assert len(refused) == 4
+    _same(got, edmf_rs.falsify_model(_model, theta, y, t))
+    # Released when the run ends: the folder is usable again at once.
+    _same(edmf_rs.falsify_model(model, theta, y, t, checkpoint=folder), got)
+
+
 # -- full disk ---------------------------------------------------------------
 
 @pytest.mark.parametrize("writer", ["save_npy", "save_state"])

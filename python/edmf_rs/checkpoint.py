@@ -22,11 +22,18 @@ from pathlib import Path
 
 import numpy as np
 
+try:
+    import fcntl
+except ImportError:  # not POSIX: folders are not locked
+    fcntl = None
+
 from . import atomic
 from .result import FalsificationResult
 from .thresholds import Thresholds
 
 STATE = "state.json"
+#: Held (``flock``) by the run using the folder; the OS drops it if the run dies.
+LOCK = ".lock"
 FORMAT = "edmf_rs.checkpoint/1"
 #: Fingerprint entries that are content hashes (not worth printing).
 HASHED = ("measurements", "thresholds")
@@ -96,6 +103,36 @@ class Checkpoint:
             raise ValueError(f"checkpoint: expected a folder, {self.folder} is a file")
         self.every, self.fields, self.input_name = float(every), fields, input_name
         self.fingerprint = fp
+        self._lock = self._acquire()
+        try:
+            self._read_progress()
+        except BaseException:
+            self.close()
+            raise
+
+    def _acquire(self):
+        """Locks the folder against a second run writing into it at once."""
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            fh = open(self.folder / LOCK, "a")
+        except OSError as exc:
+            raise ValueError(f"checkpoint: cannot use folder {self.folder}: {exc.strerror}") from None
+        try:
+            if fcntl is not None:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.close()
+            raise ValueError(f"checkpoint: folder {self.folder} is in use by another run "
+                             "(wait for it to finish, or give another folder)") from None
+        return fh
+
+    def close(self) -> None:
+        """Releases the folder (idempotent)."""
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
+
+    def _read_progress(self) -> None:
         state = self._read_state()
         if state is not None:
             self._check(state["fingerprint"])

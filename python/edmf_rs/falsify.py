@@ -57,7 +57,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         chunk (or returns the finished result); other inputs are refused
         (checked by their measurements, thresholds, options, length and
         first and last rows done; a finished run over an iterable returns its
-        saved result without reading the iterable again).
+        saved result without reading the iterable again). A folder serves one
+        run at a time: a second run on it meanwhile is refused.
     """
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
@@ -77,47 +78,51 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         chunk_rows = max(1024, CHUNK_BYTES // (8 * y.shape[0]))  # so an array is checkpointed in steps too
     source = open_source(predictions, y.shape[0], chunk_rows)
     ckpt = None
-    if checkpoint is not None:
-        fp = fingerprint("falsify", y, thresholds, diagnostics=bool(diagnostics),
-                         keep_violations=keep_violations, n_instances=source.n_instances)
-        ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every),
-                          ("n_violated",) if keep_violations else ())
-        if ckpt.complete:
-            if source.n_instances is not None:  # arrays and files: two rows read to confirm
-                ckpt.confirm_finished(source.chunks(ckpt.n_done, ckpt.verify_row))
-            return ckpt.result(thresholds, y)  # an iterable is not drained again
-    start = ckpt.n_done if ckpt else 0
+    try:
+        if checkpoint is not None:
+            fp = fingerprint("falsify", y, thresholds, diagnostics=bool(diagnostics),
+                             keep_violations=keep_violations, n_instances=source.n_instances)
+            ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every),
+                              ("n_violated",) if keep_violations else ())
+            if ckpt.complete:
+                if source.n_instances is not None:  # arrays and files: two rows read to confirm
+                    ckpt.confirm_finished(source.chunks(ckpt.n_done, ckpt.verify_row))
+                return ckpt.result(thresholds, y)  # an iterable is not drained again
+        start = ckpt.n_done if ckpt else 0
 
-    acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
-                          keep_violations=keep_violations)
-    chunks = source.chunks(start, ckpt.verify_row if ckpt else None)
-    tail = None  # (index, row) of the last instance falsified, for the checkpoint
-    with bar(source.n_instances, progress and _streams(source, chunk_rows), initial=start) as progress_bar:
-        try:
-            for chunk in chunks:
-                first = start + int(acc.n_instances)
-                acc.update(chunk)
-                if ckpt is None:
+        acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
+                              keep_violations=keep_violations)
+        chunks = source.chunks(start, ckpt.verify_row if ckpt else None)
+        tail = None  # (index, row) of the last instance falsified, for the checkpoint
+        with bar(source.n_instances, progress and _streams(source, chunk_rows), initial=start) as progress_bar:
+            try:
+                for chunk in chunks:
+                    first = start + int(acc.n_instances)
+                    acc.update(chunk)
+                    if ckpt is None:
+                        progress_bar.update(chunk.shape[0])
+                        continue
+                    if chunk.shape[0]:
+                        if first == 0:
+                            ckpt.first_row = digest(chunk[0])
+                        tail = (first + chunk.shape[0] - 1, chunk[-1].copy())
                     progress_bar.update(chunk.shape[0])
-                    continue
-                if chunk.shape[0]:
-                    if first == 0:
-                        ckpt.first_row = digest(chunk[0])
-                    tail = (first + chunk.shape[0] - 1, chunk[-1].copy())
-                progress_bar.update(chunk.shape[0])
-                if ckpt.due():
-                    ckpt.flush(acc, tail)
-        except BaseException as exc:
-            save_on_error(ckpt, acc, tail, exc)
-            raise
-        finally:
-            close = getattr(chunks, "close", None)
-            if close is not None:
-                close()  # stops a file's reader thread now, not at garbage collection
-    if ckpt is None:
-        return from_accumulator(acc, y, thresholds)
-    ckpt.flush(acc, tail, final=True)
-    return ckpt.result(thresholds, y)
+                    if ckpt.due():
+                        ckpt.flush(acc, tail)
+            except BaseException as exc:
+                save_on_error(ckpt, acc, tail, exc)
+                raise
+            finally:
+                close = getattr(chunks, "close", None)
+                if close is not None:
+                    close()  # stops a file's reader thread now, not at garbage collection
+        if ckpt is None:
+            return from_accumulator(acc, y, thresholds)
+        ckpt.flush(acc, tail, final=True)
+        return ckpt.result(thresholds, y)
+    finally:
+        if ckpt is not None:
+            ckpt.close()  # frees the folder for the next run, even after an error
 
 
 def _streams(source, chunk_rows) -> bool:

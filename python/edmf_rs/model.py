@@ -129,7 +129,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         the end). Calling again with the same folder and inputs resumes after
         the last saved batch without evaluating the model on the parameter
         sets already done (an iterable is still drawn from, to skip them; an
-        array is sliced); other inputs are refused.
+        array is sliced); other inputs are refused, and so is a second run on
+        the folder while this one holds it.
 
     Returns a :class:`FalsificationResult` whose ``candidate_parameters`` and
     ``candidate_predictions`` hold the candidates' rows.
@@ -145,89 +146,93 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
     batch_size = positive_int(batch_size, "batch_size")
     ckpt = None
-    if checkpoint is not None:
-        n_total = _known_length(parameters)
-        fp = fingerprint("falsify_model", y, thresholds, diagnostics=bool(diagnostics),
-                         keep_violations=bool(keep_violations), nan=nan, model=_model_name(model),
-                         n_instances=n_total)
-        fields = ("n_violated",) if keep_violations else ()
-        ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every), fields + ("parameters", "predictions"),
-                          input_name="parameters")
-        if ckpt.complete:
-            if n_total is not None:  # an array: two rows read to confirm; an iterable is not drained again
-                ckpt.confirm_finished(parameter_batches(parameters, batch_size, ckpt.n_done, ckpt.verify_row)[0])
-            return ckpt.result(thresholds, y)
-    start = ckpt.n_done if ckpt else 0
-    batches, total = parameter_batches(parameters, batch_size, start, ckpt.verify_row if ckpt else None)
+    try:
+        if checkpoint is not None:
+            n_total = _known_length(parameters)
+            fp = fingerprint("falsify_model", y, thresholds, diagnostics=bool(diagnostics),
+                             keep_violations=bool(keep_violations), nan=nan, model=_model_name(model),
+                             n_instances=n_total)
+            fields = ("n_violated",) if keep_violations else ()
+            ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every), fields + ("parameters", "predictions"),
+                              input_name="parameters")
+            if ckpt.complete:
+                if n_total is not None:  # an array: two rows read to confirm; an iterable is not drained again
+                    ckpt.confirm_finished(parameter_batches(parameters, batch_size, ckpt.n_done, ckpt.verify_row)[0])
+                return ckpt.result(thresholds, y)
+        start = ckpt.n_done if ckpt else 0
+        batches, total = parameter_batches(parameters, batch_size, start, ckpt.verify_row if ckpt else None)
 
-    acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
-                          keep_violations=keep_violations)
-    kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
-    tail: list = [None]  # (index, parameter row) of the last instance falsified
-    n_params = ckpt.extra.get("n_parameters") if ckpt else None
-    if n_params is None and isinstance(parameters, np.ndarray) and parameters.ndim == 2:
-        n_params = parameters.shape[1]  # known even when there are no rows
+        acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
+                              keep_violations=keep_violations)
+        kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
+        tail: list = [None]  # (index, parameter row) of the last instance falsified
+        n_params = ckpt.extra.get("n_parameters") if ckpt else None
+        if n_params is None and isinstance(parameters, np.ndarray) and parameters.ndim == 2:
+            n_params = parameters.shape[1]  # known even when there are no rows
 
-    def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
-        # Runs on the worker thread, which signals never interrupt: the
-        # accumulator and the kept rows always move together.
-        seen = acc.n_candidates
-        acc.update(preds)
-        local = acc.candidates(seen).astype(np.int64) - offset
-        kept["parameters"].append(params[local])
-        kept["predictions"].append(preds[local])
-        if len(params):
-            tail[0] = (start + offset + len(params) - 1, params[-1])
+        def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
+            # Runs on the worker thread, which signals never interrupt: the
+            # accumulator and the kept rows always move together.
+            seen = acc.n_candidates
+            acc.update(preds)
+            local = acc.candidates(seen).astype(np.int64) - offset
+            kept["parameters"].append(params[local])
+            kept["predictions"].append(preds[local])
+            if len(params):
+                tail[0] = (start + offset + len(params) - 1, params[-1])
 
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="edmf-rs-falsify") as pool, \
-            bar(total, progress, initial=start) as progress_bar:
-        pending = None
-        offset = 0  # instances of this session (after `start`)
-        try:
-            for k, params in enumerate(batches):
-                if n_params is not None and params.shape[1] != n_params:
-                    raise ValueError(f"parameters: batch {k} has {params.shape[1]} columns, expected {n_params}"
-                                     " like the batches before it")
-                n_params = params.shape[1]
-                if params.shape[0] == 0:
-                    continue
-                preds = evaluate(model, params, start + offset, y.shape[0], nan, k if start == 0 else None)
-                if on_batch is not None:
-                    on_batch(start + offset, params, preds)
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="edmf-rs-falsify") as pool, \
+                bar(total, progress, initial=start) as progress_bar:
+            pending = None
+            offset = 0  # instances of this session (after `start`)
+            try:
+                for k, params in enumerate(batches):
+                    if n_params is not None and params.shape[1] != n_params:
+                        raise ValueError(f"parameters: batch {k} has {params.shape[1]} columns, expected {n_params}"
+                                         " like the batches before it")
+                    n_params = params.shape[1]
+                    if params.shape[0] == 0:
+                        continue
+                    preds = evaluate(model, params, start + offset, y.shape[0], nan, k if start == 0 else None)
+                    if on_batch is not None:
+                        on_batch(start + offset, params, preds)
+                    if pending is not None:
+                        pending.result()
+                        pending = None
+                        if ckpt is not None and ckpt.due():
+                            ckpt.extra["n_parameters"] = n_params
+                            ckpt.flush(acc, tail[0], kept)
+                    if ckpt is not None and start + offset == 0:
+                        ckpt.first_row = digest(params[0])
+                    pending = pool.submit(falsify_batch, params, preds, offset)
+                    offset += params.shape[0]
+                    progress_bar.update(params.shape[0])
                 if pending is not None:
                     pending.result()
-                    pending = None
-                    if ckpt is not None and ckpt.due():
+            except BaseException as exc:
+                if ckpt is not None:
+                    try:
+                        if pending is not None:
+                            pending.result()  # the worker's batch completes or leaves no trace
+                    except BaseException:
+                        pass
+                    if pending is None or pending.done():  # never save while the worker runs
                         ckpt.extra["n_parameters"] = n_params
-                        ckpt.flush(acc, tail[0], kept)
-                if ckpt is not None and start + offset == 0:
-                    ckpt.first_row = digest(params[0])
-                pending = pool.submit(falsify_batch, params, preds, offset)
-                offset += params.shape[0]
-                progress_bar.update(params.shape[0])
-            if pending is not None:
-                pending.result()
-        except BaseException as exc:
-            if ckpt is not None:
-                try:
-                    if pending is not None:
-                        pending.result()  # the worker's batch completes or leaves no trace
-                except BaseException:
-                    pass
-                if pending is None or pending.done():  # never save while the worker runs
-                    ckpt.extra["n_parameters"] = n_params
-                    save_on_error(ckpt, acc, tail[0], exc, kept)
-            raise
+                        save_on_error(ckpt, acc, tail[0], exc, kept)
+                raise
 
-    if ckpt is not None:
-        ckpt.extra["n_parameters"] = n_params if n_params is not None else 0
-        ckpt.flush(acc, tail[0], kept, final=True)
-        return ckpt.result(thresholds, y)
-    result = from_accumulator(acc, y, thresholds)
-    p = n_params if n_params is not None else 0
-    params = np.concatenate(kept["parameters"]) if kept["parameters"] else np.empty((0, p))
-    preds = np.concatenate(kept["predictions"]) if kept["predictions"] else np.empty((0, y.shape[0]))
-    return replace(result, candidate_parameters=_readonly(params), candidate_predictions=_readonly(preds))
+        if ckpt is not None:
+            ckpt.extra["n_parameters"] = n_params if n_params is not None else 0
+            ckpt.flush(acc, tail[0], kept, final=True)
+            return ckpt.result(thresholds, y)
+        result = from_accumulator(acc, y, thresholds)
+        p = n_params if n_params is not None else 0
+        params = np.concatenate(kept["parameters"]) if kept["parameters"] else np.empty((0, p))
+        preds = np.concatenate(kept["predictions"]) if kept["predictions"] else np.empty((0, y.shape[0]))
+        return replace(result, candidate_parameters=_readonly(params), candidate_predictions=_readonly(preds))
+    finally:
+        if ckpt is not None:
+            ckpt.close()  # frees the folder for the next run, even after an error
 
 
 def _known_length(parameters) -> int | None:

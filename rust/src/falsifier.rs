@@ -2,7 +2,7 @@
 //! order and it keeps the candidate model set and the diagnostics, so memory
 //! grows with the number of candidates, not the number of instances.
 //!
-//! Work inside a chunk is split into slabs (about a million predictions). The
+//! Work inside a chunk is split into slabs (about four million predictions). The
 //! caller's `stop` check runs between slabs on the calling thread, which is how
 //! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
 
@@ -15,8 +15,9 @@ use rayon::ThreadPool;
 
 /// Rows one rayon task handles; large enough to amortise scheduling.
 const BLOCK_ROWS: usize = 1024;
-/// Predictions per slab between two `stop` checks.
-const SLAB_ELEMENTS: usize = 1 << 20;
+/// Predictions per slab between two `stop` checks: a few milliseconds of
+/// work, large enough that handing each slab to the pool costs little.
+const SLAB_ELEMENTS: usize = 1 << 22;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -63,7 +64,7 @@ impl Falsifier {
             ));
         }
         Ok(Falsifier {
-            bounds: SensorBounds::new(measured, thresholds.low(), thresholds.high()),
+            bounds: SensorBounds::new(measured, thresholds.low(), thresholds.high())?,
             screen_plan: None,
             mode,
             keep_violations,
@@ -140,22 +141,34 @@ impl Falsifier {
                 self.scratch.resize(last - first, 0);
             }
             let out = &mut self.scratch[..last - first];
-            match (self.mode, &self.screen_plan) {
-                (Mode::Diagnose, _) => {
-                    chunk_tally.add(&diagnose_parallel(slab, &self.bounds, out, pool));
+            let base = self.n_instances + first as u64;
+            let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
+            // One hand-over to the pool per slab: waking it costs more than a
+            // slab's scheduling inside it.
+            let tally = pool.install(|| {
+                let tally = match (self.mode, plan) {
+                    (Mode::Screen, Some(plan)) => {
+                        screen_parallel(slab, plan, out);
+                        None
+                    }
+                    _ => Some(diagnose_parallel(slab, bounds, out)),
+                };
+                collect_candidates(out, base, candidates).map(|()| tally)
+            })?;
+            match (self.mode, tally) {
+                (Mode::Diagnose, Some(t)) => {
+                    chunk_tally.add(&t);
                     if self.keep_violations {
                         reserve(&mut self.violations, out.len(), "per-instance violation counts")?;
                         self.violations.extend_from_slice(out);
                     }
                 }
-                (Mode::Screen, Some(order)) => screen_parallel(slab, order, out, pool),
-                (Mode::Screen, None) => {
-                    // Learn which sensors reject most; candidates do not depend on it.
-                    let t = diagnose_parallel(slab, &self.bounds, out, pool);
-                    self.screen_plan = Some(ScreenPlan::new(&self.bounds, &t.per_sensor));
+                // Learn which sensors reject most; candidates do not depend on it.
+                (Mode::Screen, Some(t)) => {
+                    self.screen_plan = Some(ScreenPlan::new(&self.bounds, &t.per_sensor))
                 }
+                _ => {}
             }
-            collect_candidates(out, self.n_instances + first as u64, &mut self.candidates, pool)?;
             if stop() {
                 self.candidates.truncate(kept_candidates);
                 self.violations.truncate(kept_violations);
@@ -169,40 +182,46 @@ impl Falsifier {
 }
 
 /// Appends `base + i` for every `out[i] == 0`, in order, in parallel: count
-/// per block, prefix-sum the counts, then each block writes its own slice.
-fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>, pool: &ThreadPool) -> Result<()> {
-    pool.install(|| {
-        let counts: Vec<usize> = out
-            .par_chunks(BLOCK_ROWS)
-            .map(|o| o.iter().filter(|&&v| v == 0).count())
-            .collect();
-        let start = candidates.len();
-        let found = counts.iter().sum::<usize>();
-        reserve(candidates, found, "candidate indices")?;
-        candidates.resize(start + found, 0);
-        let mut rest = &mut candidates[start..];
-        let mut slices = Vec::with_capacity(counts.len());
-        for &c in &counts {
-            let (head, tail) = rest.split_at_mut(c);
-            slices.push(head);
-            rest = tail;
-        }
-        out.par_chunks(BLOCK_ROWS)
-            .zip(slices)
-            .enumerate()
-            .for_each(|(k, (o, dst))| {
-                let first = base + (k * BLOCK_ROWS) as u64;
-                let found = o
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &v)| v == 0)
-                    .map(|(i, _)| first + i as u64);
-                for (d, c) in dst.iter_mut().zip(found) {
-                    *d = c;
-                }
-            });
-        Ok(())
-    })
+/// per block, prefix-sum the counts, then each block writes its own slice of
+/// the spare capacity (not zero-filled first: with every instance a
+/// candidate, a sequential fill costs as much as a tenth of the kernel).
+/// Runs in the caller's pool.
+fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>) -> Result<()> {
+    let counts: Vec<usize> = out
+        .par_chunks(BLOCK_ROWS)
+        .map(|o| o.iter().filter(|&&v| v == 0).count())
+        .collect();
+    let found = counts.iter().sum::<usize>();
+    reserve(candidates, found, "candidate indices")?;
+    let mut rest = &mut candidates.spare_capacity_mut()[..found];
+    let mut slices = Vec::with_capacity(counts.len());
+    for &c in &counts {
+        let (head, tail) = rest.split_at_mut(c);
+        slices.push(head);
+        rest = tail;
+    }
+    out.par_chunks(BLOCK_ROWS)
+        .zip(slices)
+        .enumerate()
+        .for_each(|(k, (o, dst))| {
+            let first = base + (k * BLOCK_ROWS) as u64;
+            let found = o
+                .iter()
+                .enumerate()
+                .filter(|(_, &v)| v == 0)
+                .map(|(i, _)| first + i as u64);
+            let mut written = 0;
+            for (d, c) in dst.iter_mut().zip(found) {
+                d.write(c);
+                written += 1;
+            }
+            // The same filter over the same block counted them.
+            assert_eq!(written, dst.len(), "candidate count changed between passes");
+        });
+    // SAFETY: the `found` slots after the old length were all written above
+    // (each block asserts it filled its slice).
+    unsafe { candidates.set_len(candidates.len() + found) };
+    Ok(())
 }
 
 /// Room for `more` elements, or an error (an allocation failure would abort
@@ -212,34 +231,27 @@ fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
         .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
-fn diagnose_parallel<T: Prediction>(
-    m: Matrix<'_, T>,
-    b: &SensorBounds,
-    out: &mut [u32],
-    pool: &ThreadPool,
-) -> Tally {
+/// Runs in the caller's pool.
+fn diagnose_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32]) -> Tally {
     let n_m = b.len();
-    pool.install(|| {
-        out.par_chunks_mut(BLOCK_ROWS)
-            .enumerate()
-            .fold(
-                || Tally::zeros(n_m),
-                |mut t, (k, o)| {
-                    let first = k * BLOCK_ROWS;
-                    diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
-                    t
-                },
-            )
-            .reduce(|| Tally::zeros(n_m), Tally::merge)
-    })
+    out.par_chunks_mut(BLOCK_ROWS)
+        .enumerate()
+        .fold(
+            || Tally::zeros(n_m),
+            |mut t, (k, o)| {
+                let first = k * BLOCK_ROWS;
+                diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
+                t
+            },
+        )
+        .reduce(|| Tally::zeros(n_m), Tally::merge)
 }
 
-fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &ScreenPlan, out: &mut [u32], pool: &ThreadPool) {
-    pool.install(|| {
-        out.par_chunks_mut(BLOCK_ROWS).enumerate().for_each(|(k, o)| {
-            let first = k * BLOCK_ROWS;
-            screen(m.slice_rows(first, first + o.len()), b, o);
-        })
+/// Runs in the caller's pool.
+fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &ScreenPlan, out: &mut [u32]) {
+    out.par_chunks_mut(BLOCK_ROWS).enumerate().for_each(|(k, o)| {
+        let first = k * BLOCK_ROWS;
+        screen(m.slice_rows(first, first + o.len()), b, o);
     })
 }
 

@@ -7,6 +7,7 @@
 //! (for diagnostics); `screen` only tells candidate or not, trying first the
 //! sensors that reject most and stopping as soon as one rejects.
 
+pub use crate::bounds::{ScreenPlan, SensorBounds, BLOCK};
 use crate::matrix::Matrix;
 
 #[cfg(target_arch = "x86_64")]
@@ -22,12 +23,18 @@ impl Lanes for f64 {}
 /// Element types the kernels read natively (no conversion pass).
 pub trait Prediction: Copy + Send + Sync + 'static + Lanes {
     fn to_f64(self) -> f64;
+    /// `[p_low, p_high]` per sensor in this type (see `acceptance`).
+    fn accepted(b: &SensorBounds) -> &[Vec<Self>; 2];
 }
 
 impl Prediction for f64 {
     #[inline(always)]
     fn to_f64(self) -> f64 {
         self
+    }
+    #[inline(always)]
+    fn accepted(b: &SensorBounds) -> &[Vec<f64>; 2] {
+        &b.accept64
     }
 }
 
@@ -36,61 +43,9 @@ impl Prediction for f32 {
     fn to_f64(self) -> f64 {
         self as f64
     }
-}
-
-/// Measurements and thresholds laid out per sensor, in one visiting order.
-#[derive(Debug, Clone)]
-pub struct SensorBounds {
-    /// Column index in the prediction matrix of each visited sensor.
-    pub column: Vec<usize>,
-    pub measured: Vec<f64>,
-    pub low: Vec<f64>,
-    pub high: Vec<f64>,
-}
-
-impl SensorBounds {
-    /// True if any of these sensors rejects the instance whose prediction at
-    /// column j is `prediction(j)`; stops at the first that does.
     #[inline(always)]
-    fn rejects(&self, prediction: impl Fn(usize) -> f64) -> bool {
-        let sensors = self
-            .column
-            .iter()
-            .zip(&self.measured)
-            .zip(self.low.iter().zip(&self.high));
-        for ((&j, &y), (&lo, &hi)) in sensors {
-            if outside(prediction(j), y, lo, hi) {
-                return true;
-            }
-        }
-        false
-    }
-
-    pub fn new(measured: &[f64], low: &[f64], high: &[f64]) -> Self {
-        SensorBounds {
-            column: (0..measured.len()).collect(),
-            measured: measured.to_vec(),
-            low: low.to_vec(),
-            high: high.to_vec(),
-        }
-    }
-
-    /// The same bounds visited in `order` (a permutation of the columns).
-    pub fn reordered(&self, order: &[usize]) -> Self {
-        SensorBounds {
-            column: order.iter().map(|&j| self.column[j]).collect(),
-            measured: order.iter().map(|&j| self.measured[j]).collect(),
-            low: order.iter().map(|&j| self.low[j]).collect(),
-            high: order.iter().map(|&j| self.high[j]).collect(),
-        }
-    }
-
-    pub fn len(&self) -> usize {
-        self.column.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.column.is_empty()
+    fn accepted(b: &SensorBounds) -> &[Vec<f32>; 2] {
+        &b.accept32
     }
 }
 
@@ -177,27 +132,17 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
 /// "First rejecting sensor not tracked": the caller looks for it if it needs it.
 pub(crate) const UNKNOWN: usize = usize::MAX;
 
-/// True if any sensor of a contiguous row rejects it; exits at the first
-/// lane group holding a rejection.
+/// True if any sensor rejects the row whose prediction at sensor j is
+/// `prediction(j)`, visiting the plan's blocks in order and stopping at the
+/// first block holding a rejection.
 #[inline(always)]
-fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
-    let k = row.len();
-    let (y, lo, hi) = (&b.measured[..k], &b.low[..k], &b.high[..k]);
-    let lanes = row
-        .chunks_exact(LANES)
-        .zip(y.chunks_exact(LANES))
-        .zip(lo.chunks_exact(LANES).zip(hi.chunks_exact(LANES)));
-    for ((p, y), (lo, hi)) in lanes {
-        let mut any = false;
-        for l in 0..LANES {
-            any |= outside(p[l].to_f64(), y[l], lo[l], hi[l]);
-        }
-        if any {
-            return true;
-        }
-    }
-    let whole = k - k % LANES;
-    (whole..k).any(|j| outside(row[j].to_f64(), y[j], lo[j], hi[j]))
+fn row_rejected(plan: &ScreenPlan, k: usize, prediction: impl Fn(usize) -> f64) -> bool {
+    let b = &plan.all;
+    plan.blocks.iter().any(|&s| {
+        (s..(s + BLOCK).min(k)).fold(false, |any, j| {
+            any | outside(prediction(j), b.measured[j], b.low[j], b.high[j])
+        })
+    })
 }
 
 #[inline(always)]
@@ -245,51 +190,14 @@ pub(crate) fn screen_impl<T: Prediction>(
     m: Matrix<'_, T>,
     plan: &ScreenPlan,
     out: &mut [u32],
-    row_kernel: impl Fn(&[T], &SensorBounds) -> bool,
+    row_kernel: impl Fn(&[T], &ScreenPlan) -> bool,
 ) {
-    let first = &plan.first;
     for (i, flag) in out.iter_mut().enumerate() {
         let rejected = match m.row_slice(i) {
-            Some(row) => first.rejects(|j| row[j].to_f64()) || row_kernel(row, &plan.all),
-            None => {
-                first.rejects(|j| m.get(i, j).to_f64())
-                    || (0..plan.all.len()).any(|j| {
-                        outside(
-                            m.get(i, j).to_f64(),
-                            plan.all.measured[j],
-                            plan.all.low[j],
-                            plan.all.high[j],
-                        )
-                    })
-            }
+            Some(row) => row_kernel(row, plan),
+            None => row_rejected(plan, m.cols(), |j| m.get(i, j).to_f64()),
         };
         *flag = rejected as u32;
-    }
-}
-
-/// Visiting plan for screening: the sensors that reject most are tried first,
-/// one by one; survivors then get a full vectorised pass in column order.
-#[derive(Debug, Clone)]
-pub struct ScreenPlan {
-    first: SensorBounds,
-    pub(crate) all: SensorBounds,
-}
-
-impl ScreenPlan {
-    /// Sensors tried one by one before the vectorised pass.
-    const FIRST: usize = 4;
-
-    /// `rejections[j]`: instances sensor j rejected in a sample of instances.
-    pub fn new(bounds: &SensorBounds, rejections: &[u64]) -> Self {
-        let mut order: Vec<usize> = (0..bounds.len()).collect();
-        order.sort_by_key(|&j| std::cmp::Reverse(rejections[j]));
-        // A row of one or two vector groups is tested as fast in one pass.
-        let first = if bounds.len() <= 2 * LANES { 0 } else { Self::FIRST };
-        order.truncate(first.min(order.len()));
-        ScreenPlan {
-            first: bounds.reordered(&order),
-            all: bounds.clone(),
-        }
     }
 }
 
@@ -367,7 +275,9 @@ pub fn screen_with<T: Prediction>(isa: Isa, m: Matrix<'_, T>, plan: &ScreenPlan,
         Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::screen(m, plan, out) },
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::screen(m, plan, out) },
-        _ => screen_impl(m, plan, out, row_rejected),
+        _ => screen_impl(m, plan, out, |row, plan| {
+            row_rejected(plan, row.len(), |j| row[j].to_f64())
+        }),
     }
 }
 
@@ -385,26 +295,28 @@ pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32
 mod tests {
     use super::*;
 
-    /// Vector and portable kernels agree for every row width (lane remainders),
-    /// with ties on the bounds, NaN and infinities.
+    /// Vector and portable kernels agree for every row width (lane remainders,
+    /// short rows held in registers, partial blocks), with ties on the bounds,
+    /// NaN and infinities, and blocks screened out of column order.
     #[test]
     fn vector_kernels_match_portable_ones() {
         let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
-        for k in 1..=21 {
+        for k in 1..=50 {
             // Bounds differ from sensor to sensor, so a lane reading another
             // sensor's bounds shows up.
             let y: Vec<f64> = (0..k).map(|j| 0.25 * (j % 3) as f64).collect();
             let lo: Vec<f64> = (0..k).map(|j| -0.25 - 0.25 * (j % 2) as f64).collect();
             let hi: Vec<f64> = (0..k).map(|j| 0.5 + 0.25 * (j % 4) as f64).collect();
-            let b = SensorBounds::new(&y, &lo, &hi);
-            let rows = 64;
+            let b = SensorBounds::new(&y, &lo, &hi).unwrap();
+            let rows = 71; // not a whole number of tiles
             let data: Vec<f64> = (0..rows * k)
                 .map(|i| y[i % k] + specials[(i * 7 + i / 5) % specials.len()])
                 .collect();
             let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
             let m = Matrix::row_major(&data, rows, k).unwrap();
             let m32 = Matrix::row_major(&data32, rows, k).unwrap();
-            let plan = ScreenPlan::new(&b, &vec![1; k]);
+            let rejections: Vec<u64> = (0..k as u64).map(|j| j * j % 11).collect();
+            let plan = ScreenPlan::new(&b, &rejections);
             let (mut a, mut c) = (vec![0u32; rows], vec![0u32; rows]);
             for isa in Isa::available() {
                 let (mut ta, mut tc) = (Tally::zeros(k), Tally::zeros(k));
@@ -437,9 +349,60 @@ mod tests {
         }
     }
 
+    /// Predictions one float step either side of the rounded bounds, where
+    /// the acceptance intervals of the vector kernels must reproduce the
+    /// residual test's rounding exactly (f64 and f32 predictions).
+    #[test]
+    fn vector_kernels_round_like_the_residual_test() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for k in [3, 8, 17, 33] {
+            let y: Vec<f64> = (0..k).map(|_| (uniform() - 0.5) * 1e3).collect();
+            let lo: Vec<f64> = (0..k).map(|_| -uniform() * 1e-3).collect();
+            let hi: Vec<f64> = (0..k).map(|_| uniform() * 1e-3).collect();
+            let b = SensorBounds::new(&y, &lo, &hi).unwrap();
+            let rows = 96;
+            let data: Vec<f64> = (0..rows * k)
+                .map(|i| {
+                    let j = i % k;
+                    let edge = if (i / k) % 2 == 0 {
+                        y[j] + lo[j]
+                    } else {
+                        y[j] + hi[j]
+                    };
+                    let steps = (i / (2 * k)) as i64 % 5 - 2;
+                    f64::from_bits((edge.to_bits() as i64 + steps) as u64)
+                })
+                .collect();
+            let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+            let plan = ScreenPlan::new(&b, &vec![0; k]);
+            for isa in Isa::available() {
+                let (mut a, mut c) = (vec![0u32; rows], vec![0u32; rows]);
+                let (mut ta, mut tc) = (Tally::zeros(k), Tally::zeros(k));
+                let m = Matrix::row_major(&data, rows, k).unwrap();
+                diagnose_with(isa, m, &b, &mut a, &mut ta);
+                diagnose_with(Isa::Portable, m, &b, &mut c, &mut tc);
+                assert_eq!((&a, &ta), (&c, &tc), "{isa:?} f64, {k} sensors");
+                assert!(c.iter().any(|&n| n > 0) && ta.per_sensor.iter().any(|&n| n < rows as u64));
+                let m32 = Matrix::row_major(&data32, rows, k).unwrap();
+                diagnose_with(isa, m32, &b, &mut a, &mut ta);
+                diagnose_with(Isa::Portable, m32, &b, &mut c, &mut tc);
+                assert_eq!((&a, &ta), (&c, &tc), "{isa:?} f32, {k} sensors");
+                screen_with(isa, m, &plan, &mut a);
+                screen_with(Isa::Portable, m, &plan, &mut c);
+                assert_eq!(a, c, "{isa:?} f64 screen, {k} sensors");
+            }
+        }
+    }
+
     #[test]
     fn bounds_are_inclusive_and_nan_is_outside() {
-        let b = SensorBounds::new(&[1.0, 1.0], &[-0.5, -0.5], &[0.5, 0.5]);
+        let b = SensorBounds::new(&[1.0, 1.0], &[-0.5, -0.5], &[0.5, 0.5]).unwrap();
         // rows: on both bounds, one sensor out, NaN, both out
         let p = [0.5, 1.5, 0.49, 1.0, f64::NAN, 1.0, 3.0, -3.0];
         let m = Matrix::row_major(&p, 4, 2).unwrap();
@@ -459,7 +422,7 @@ mod tests {
     fn f32_residuals_are_formed_in_f64() {
         // 0.1f32 is not 0.1; the residual must use its exact f64 value.
         let x = 0.1f32;
-        let b = SensorBounds::new(&[0.0], &[x as f64], &[x as f64]);
+        let b = SensorBounds::new(&[0.0], &[x as f64], &[x as f64]).unwrap();
         let m = Matrix::row_major(std::slice::from_ref(&x), 1, 1).unwrap();
         let mut out = [9u32];
         diagnose(m, &b, &mut out, &mut Tally::zeros(1));
@@ -468,7 +431,7 @@ mod tests {
 
     #[test]
     fn strided_view_matches_contiguous() {
-        let b = SensorBounds::new(&[0.0, 0.0, 0.0], &[-1.0; 3], &[1.0; 3]);
+        let b = SensorBounds::new(&[0.0, 0.0, 0.0], &[-1.0; 3], &[1.0; 3]).unwrap();
         let c = [0.0, 2.0, 0.5, -0.5, 0.0, 0.9, 5.0, 5.0, 5.0];
         let f = [0.0, -0.5, 5.0, 2.0, 0.0, 5.0, 0.5, 0.9, 5.0];
         let (mut oc, mut of) = ([0u32; 3], [0u32; 3]);

@@ -9,6 +9,8 @@
 //!
 //! No Python here: the `edmf_rs` package wraps this crate through a thin PyO3 layer.
 
+pub mod acceptance;
+pub mod bounds;
 pub mod ellipse;
 pub mod error;
 pub mod falsifier;

@@ -1,19 +1,29 @@
-//! AVX2: four sensors per vector; the last `k % 4` sensors use the portable loop.
+//! AVX2: four sensors per vector, predictions widened to f64 and compared
+//! with the f64 acceptance intervals; the last `k % 4` sensors of a row (and
+//! of a block) are tested one by one.
 
 use crate::kernel::{
-    diagnose_impl, outside, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, UNKNOWN,
+    diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK, UNKNOWN,
 };
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
-/// All-ones lanes where sensors `j..j+4` reject the prediction (Eq. 8; NaN rejects).
+/// All-ones lanes where sensors `j..j+4` reject the prediction (NaN rejects).
+///
+/// # Safety
+/// AVX2 is available and the acceptance vectors hold four values from `j`.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn outside4(p: __m256d, b: &SensorBounds, j: usize) -> __m256d {
-    let r = _mm256_sub_pd(p, _mm256_loadu_pd(b.measured.as_ptr().add(j)));
-    let ge = _mm256_cmp_pd::<_CMP_GE_OQ>(r, _mm256_loadu_pd(b.low.as_ptr().add(j)));
-    let le = _mm256_cmp_pd::<_CMP_LE_OQ>(r, _mm256_loadu_pd(b.high.as_ptr().add(j)));
+unsafe fn outside4(p: __m256d, accept: &[Vec<f64>; 2], j: usize) -> __m256d {
+    let ge = _mm256_cmp_pd::<_CMP_GE_OQ>(p, _mm256_loadu_pd(accept[0].as_ptr().add(j)));
+    let le = _mm256_cmp_pd::<_CMP_LE_OQ>(p, _mm256_loadu_pd(accept[1].as_ptr().add(j)));
     _mm256_xor_pd(_mm256_and_pd(ge, le), _mm256_castsi256_pd(_mm256_set1_epi64x(-1)))
+}
+
+/// The scalar form of `outside4`, for the last sensors of a row.
+#[inline(always)]
+fn outside1(p: f64, accept: &[Vec<f64>; 2], j: usize) -> bool {
+    !(accept[0][j] <= p && p <= accept[1][j])
 }
 
 /// Rejecting-sensor count, NaN flag and first rejecting sensor of a row; adds
@@ -21,22 +31,22 @@ unsafe fn outside4(p: __m256d, b: &SensorBounds, j: usize) -> __m256d {
 #[inline]
 #[target_feature(enable = "avx2")]
 fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
-    let k = row.len();
-    assert!(b.len() >= k && counts.len() >= k);
+    let (k, accept) = (row.len(), &b.accept64);
+    assert!(accept[0].len() >= k && counts.len() >= k);
     super::prefetch_ahead(row);
     let whole = k - k % 4;
-    // SAFETY: AVX2 is enabled; every index below `whole` is within `row`, `b` and `counts`.
     let mut first = UNKNOWN;
+    // SAFETY: AVX2 is enabled; every index below `whole` is within `row`,
+    // the acceptance vectors and `counts`.
     let (mut n, mut nan) = unsafe {
         let mut n = _mm256_setzero_si256();
         let mut nan = _mm256_setzero_pd();
         for j in (0..whole).step_by(4) {
             let p = T::load4(row.as_ptr().add(j));
-            let rejects = outside4(p, b, j);
+            let rejects = outside4(p, accept, j);
             let bits = _mm256_movemask_pd(rejects);
-            let found = j + bits.trailing_zeros() as usize;
             first = if first == UNKNOWN && bits != 0 {
-                found
+                j + bits.trailing_zeros() as usize
             } else {
                 first
             };
@@ -53,7 +63,7 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     };
     for j in whole..k {
         let p = row[j].to_f64();
-        let v = outside(p, b.measured[j], b.low[j], b.high[j]);
+        let v = outside1(p, accept, j);
         if v && first == UNKNOWN {
             first = j;
         }
@@ -64,33 +74,28 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     (n, nan, first)
 }
 
-/// True if any sensor rejects the row; one branch per eight sensors.
+/// True if any sensor rejects the row, visiting the plan's blocks in order
+/// with one branch per block.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
-    let k = row.len();
-    assert!(b.len() >= k);
+fn row_rejected<T: Prediction>(row: &[T], plan: &ScreenPlan) -> bool {
+    let (k, accept) = (row.len(), &plan.all.accept64);
+    assert!(accept[0].len() >= k);
     super::prefetch_ahead(row);
-    let whole = k - k % 4;
-    let mut j = 0;
-    // SAFETY: AVX2 is enabled; every index below `whole` is within `row` and `b`.
-    unsafe {
-        while j + 8 <= whole {
-            let a = outside4(T::load4(row.as_ptr().add(j)), b, j);
-            let c = outside4(T::load4(row.as_ptr().add(j + 4)), b, j + 4);
-            if _mm256_movemask_pd(_mm256_or_pd(a, c)) != 0 {
-                return true;
+    plan.blocks.iter().any(|&s| {
+        let end = (s + BLOCK).min(k);
+        let whole = s + (end - s) / 4 * 4;
+        // SAFETY: AVX2 is enabled; every index below `whole` is within `row`
+        // and the acceptance vectors.
+        let vector = unsafe {
+            let mut any = _mm256_setzero_pd();
+            for j in (s..whole).step_by(4) {
+                any = _mm256_or_pd(any, outside4(T::load4(row.as_ptr().add(j)), accept, j));
             }
-            j += 8;
-        }
-        if j < whole {
-            if _mm256_movemask_pd(outside4(T::load4(row.as_ptr().add(j)), b, j)) != 0 {
-                return true;
-            }
-            j += 4;
-        }
-    }
-    (j..k).any(|j| outside(row[j].to_f64(), b.measured[j], b.low[j], b.high[j]))
+            _mm256_movemask_pd(any) != 0
+        };
+        vector || (whole..end).any(|j| outside1(row[j].to_f64(), accept, j))
+    })
 }
 
 #[target_feature(enable = "avx2")]
@@ -100,5 +105,5 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
 
 #[target_feature(enable = "avx2")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_impl(m, plan, out, |row, b| row_rejected(row, b))
+    screen_impl(m, plan, out, |row, plan| row_rejected(row, plan))
 }

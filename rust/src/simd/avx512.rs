@@ -1,223 +1,228 @@
-//! AVX-512F: eight sensors per vector, compares straight into mask registers,
-//! and masked loads for the last `k % 8` sensors, so no scalar tail.
+//! AVX-512F: predictions compared in their own type (f64 eight lanes, f32
+//! sixteen) with the acceptance intervals, straight into mask registers; the
+//! last lanes of a row are loaded masked, so there is no scalar tail.
 
-use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, UNKNOWN};
+use crate::kernel::{
+    diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK, UNKNOWN,
+};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
-/// Lanes of sensors `j..j+8` (those set in `lanes`) that reject the prediction
-/// (Eq. 8; NaN rejects). Bounds are loaded under the same mask.
-#[inline]
-#[target_feature(enable = "avx512f")]
-unsafe fn outside8(p: __m512d, b: &SensorBounds, j: usize, lanes: __mmask8) -> __mmask8 {
-    let y = _mm512_maskz_loadu_pd(lanes, b.measured.as_ptr().add(j));
-    let lo = _mm512_maskz_loadu_pd(lanes, b.low.as_ptr().add(j));
-    let hi = _mm512_maskz_loadu_pd(lanes, b.high.as_ptr().add(j));
-    let r = _mm512_sub_pd(p, y);
-    let inside =
-        _mm512_mask_cmp_pd_mask::<_CMP_GE_OQ>(lanes, r, lo) & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(r, hi);
-    !inside & lanes
+/// Mask of the first `n` lanes (n <= 16).
+#[inline(always)]
+fn prefix(n: usize) -> u32 {
+    (1u32 << n) - 1
 }
 
-/// Mask of the first `n` lanes (n <= 8).
+/// Rejecting lanes and NaN lanes among `lanes` of the vector of sensors
+/// `j..j + W512` of `row`.
+///
+/// # Safety
+/// AVX-512F is available, the lanes set in `lanes` are within `row` from `j`,
+/// and the acceptance vectors hold `W512` values from `j` (they are padded to
+/// whole blocks, and `j` is a multiple of `W512`).
 #[inline(always)]
-fn prefix(n: usize) -> __mmask8 {
-    ((1u16 << n) - 1) as __mmask8
+unsafe fn group<T: Prediction>(row: &[T], accept: &[Vec<T>; 2], j: usize, lanes: u32) -> (u32, u32) {
+    let all = u32::MAX >> (32 - T::W512);
+    let p = T::load512(lanes, row.as_ptr().wrapping_add(j));
+    let low = T::load512(all, accept[0].as_ptr().add(j));
+    let high = T::load512(all, accept[1].as_ptr().add(j));
+    (!T::inside512(lanes, p, low, high) & lanes, T::nan512(lanes, p))
+}
+
+/// Adds one to `counts[j + l]` for every lane `l` set in `out`.
+///
+/// # Safety
+/// AVX-512F is available; the lanes set in `lanes` are within `counts` from `j`.
+#[inline(always)]
+unsafe fn add_counts<T: Prediction>(counts: &mut [u64], j: usize, lanes: u32, out: u32) {
+    let ones = _mm512_set1_epi64(1);
+    for half in 0..T::W512 / 8 {
+        let (keep, add) = ((lanes >> (8 * half)) as __mmask8, (out >> (8 * half)) as __mmask8);
+        // Masked: lanes past the row's end are neither read nor written.
+        let c = counts.as_mut_ptr().wrapping_add(j + 8 * half) as *mut i64;
+        let now = _mm512_maskz_loadu_epi64(keep, c);
+        _mm512_mask_storeu_epi64(c, keep, _mm512_mask_add_epi64(now, add, now, ones));
+    }
 }
 
 /// Rejecting-sensor count, NaN flag and first rejecting sensor of a row; adds
-/// every rejection to `counts`.
+/// every rejection to `counts`. Whole vectors first, then one masked tail.
 #[inline]
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
-    let k = row.len();
-    assert!(b.len() >= k && counts.len() >= k);
+    let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
+    assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && counts.len() >= k);
     super::prefetch_ahead(row);
-    let mut n = 0u32;
-    let mut nan: __mmask8 = 0;
-    let mut first = UNKNOWN;
-    let mut j = 0;
-    // SAFETY: AVX-512F is enabled; full groups stay below `k`, and the last
-    // group reads and writes only the lanes below `k` (masked).
-    unsafe {
-        let ones = _mm512_set1_epi64(1);
-        while j < k {
-            let lanes = prefix((k - j).min(8));
-            let p = if lanes == 0xFF {
-                T::load8(row.as_ptr().add(j))
-            } else {
-                T::load8_masked(lanes, row.as_ptr().add(j))
-            };
-            let out = outside8(p, b, j, lanes);
-            let c = counts.as_mut_ptr().add(j) as *mut i64;
-            let total = _mm512_mask_add_epi64(
-                _mm512_maskz_loadu_epi64(lanes, c),
-                out,
-                _mm512_maskz_loadu_epi64(lanes, c),
-                ones,
-            );
-            _mm512_mask_storeu_epi64(c, lanes, total);
-            n += out.count_ones();
-            let found = j + out.trailing_zeros() as usize;
-            first = if first == UNKNOWN && out != 0 {
-                found
-            } else {
-                first
-            };
-            nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes, p, p);
-            j += 8;
-        }
+    let (mut n, mut nan, mut first) = (0u32, 0u32, UNKNOWN);
+    let whole = k - k % w;
+    let mut tally = |j: usize, lanes: u32| {
+        // SAFETY: AVX-512F is enabled; the lanes of `lanes` lie below `k`,
+        // within `row` and `counts`, and the acceptance vectors are padded.
+        let (out, nans) = unsafe { group(row, accept, j, lanes) };
+        unsafe { add_counts::<T>(counts, j, lanes, out) };
+        n += out.count_ones();
+        first = if first == UNKNOWN && out != 0 {
+            j + out.trailing_zeros() as usize
+        } else {
+            first
+        };
+        nan |= nans;
+    };
+    for j in (0..whole).step_by(w) {
+        tally(j, prefix(w));
+    }
+    if whole < k {
+        tally(whole, prefix(k - whole));
     }
     (n, nan != 0, first)
 }
 
-/// True if any sensor rejects the row; one branch per sixteen sensors (a row
-/// of up to 16 sensors is one predictable branch).
+/// True if any sensor rejects the row, visiting the plan's blocks in order
+/// with one branch per block.
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
-    let k = row.len();
-    assert!(b.len() >= k);
+fn row_rejected<T: Prediction>(row: &[T], plan: &ScreenPlan) -> bool {
+    let (k, accept, w) = (row.len(), T::accepted(&plan.all), T::W512);
+    assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK);
     super::prefetch_ahead(row);
-    let group = |j: usize| {
-        // SAFETY: AVX-512F is enabled; only lanes below `k` are read (masked).
-        unsafe {
-            let lanes = prefix(k.saturating_sub(j).min(8));
-            let p = if lanes == 0xFF {
-                T::load8(row.as_ptr().add(j))
+    let tail = k - k % BLOCK;
+    plan.blocks.iter().any(|&s| {
+        let mut rejects = 0;
+        // A fixed number of vectors per block; in the last, partial block the
+        // lanes past the row's end are masked off (possibly all of a vector).
+        for g in 0..BLOCK / w {
+            let j = s + g * w;
+            let lanes = if s < tail {
+                prefix(w)
             } else {
-                T::load8_masked(lanes, row.as_ptr().add(j))
+                prefix(k.saturating_sub(j).min(w))
             };
-            outside8(p, b, j, lanes)
+            // SAFETY: AVX-512F is enabled; the lanes read lie below `k` and the
+            // acceptance vectors are padded to whole blocks.
+            rejects |= unsafe { group(row, accept, j, lanes) }.0;
         }
-    };
-    let mut j = 0;
-    while j < k {
-        let rejects = if j + 8 < k {
-            group(j) | group(j + 8)
-        } else {
-            group(j)
-        };
-        if rejects != 0 {
-            return true;
-        }
-        j += 16;
-    }
-    false
+        rejects != 0
+    })
 }
 
-/// Bounds of a row of at most 16 sensors, held in registers for a whole block
-/// of rows: short rows are otherwise dominated by reloading them every row.
-struct ShortRow {
-    measured: [__m512d; 2],
-    low: [__m512d; 2],
-    high: [__m512d; 2],
-    lanes: [__mmask8; 2],
+/// Acceptance intervals of a row of at most two vectors, held in registers
+/// for a whole block of rows: short rows are otherwise dominated by
+/// reloading them every row.
+struct ShortRow<T: Prediction> {
+    low: [T::V512; 2],
+    high: [T::V512; 2],
+    lanes: [u32; 2],
     k: usize,
 }
 
-impl ShortRow {
-    const MAX: usize = 16;
+impl<T: Prediction> ShortRow<T> {
+    fn fits(k: usize) -> bool {
+        k <= 2 * T::W512
+    }
 
     #[inline]
     #[target_feature(enable = "avx512f")]
-    fn new(b: &SensorBounds) -> ShortRow {
-        let k = b.len();
-        assert!(k <= Self::MAX);
-        let lanes = [prefix(k.min(8)), prefix(k.saturating_sub(8))];
+    fn new(b: &SensorBounds) -> Self {
+        let (k, accept) = (b.len(), T::accepted(b));
+        assert!(Self::fits(k));
+        let lanes = [prefix(k.min(T::W512)), prefix(k.saturating_sub(T::W512))];
         // SAFETY: AVX-512F is enabled; masked loads read only sensors below `k`.
-        // `wrapping_add`: group 1 of a row of fewer than 8 sensors points past the
-        // slice; its mask is empty, so nothing is read there.
-        let load =
-            |v: &[f64], g: usize| unsafe { _mm512_maskz_loadu_pd(lanes[g], v.as_ptr().wrapping_add(8 * g)) };
+        // `wrapping_add`: group 1 of a row of one vector points past the data;
+        // its mask is empty, so nothing is read there.
+        let load = |v: &[T], g: usize| unsafe { T::load512(lanes[g], v.as_ptr().wrapping_add(T::W512 * g)) };
         ShortRow {
-            measured: [load(&b.measured, 0), load(&b.measured, 1)],
-            low: [load(&b.low, 0), load(&b.low, 1)],
-            high: [load(&b.high, 0), load(&b.high, 1)],
+            low: [load(&accept[0], 0), load(&accept[0], 1)],
+            high: [load(&accept[1], 0), load(&accept[1], 1)],
             lanes,
             k,
         }
     }
 
-    /// (predictions, rejecting lanes) of lane group `g` (sensors 8g..8g+8).
+    /// (rejecting lanes, NaN lanes) of lane group `g`.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    fn group<T: Prediction>(&self, row: &[T], g: usize) -> (__m512d, __mmask8) {
+    fn group(&self, row: &[T], g: usize) -> (u32, u32) {
         assert!(row.len() == self.k);
         let lanes = self.lanes[g];
         // SAFETY: AVX-512F is enabled; only the lanes below `k` are read.
         unsafe {
-            let at = row.as_ptr().wrapping_add(8 * g);
-            let p = if lanes == 0xFF {
-                T::load8(at)
-            } else {
-                T::load8_masked(lanes, at)
-            };
-            let r = _mm512_sub_pd(p, self.measured[g]);
-            let inside = _mm512_mask_cmp_pd_mask::<_CMP_GE_OQ>(lanes, r, self.low[g])
-                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(r, self.high[g]);
-            (p, !inside & lanes)
+            let p = T::load512(lanes, row.as_ptr().wrapping_add(T::W512 * g));
+            (
+                !T::inside512(lanes, p, self.low[g], self.high[g]) & lanes,
+                T::nan512(lanes, p),
+            )
         }
     }
 
     #[inline]
     #[target_feature(enable = "avx512f")]
-    fn rejected<T: Prediction>(&self, row: &[T]) -> bool {
+    fn rejected(&self, row: &[T]) -> bool {
         super::prefetch_ahead(row);
-        let rejects = self.group(row, 0).1 | if self.k > 8 { self.group(row, 1).1 } else { 0 };
-        rejects != 0
+        let second = if self.lanes[1] != 0 {
+            self.group(row, 1).0
+        } else {
+            0
+        };
+        (self.group(row, 0).0 | second) != 0
     }
 
     /// Like `diagnose_row`, but the per-sensor counts stay in registers
-    /// (`counts`, one lane per sensor) until the block is done.
+    /// (`counts`, one u32 lane per sensor) until the caller flushes them.
     #[inline]
     #[target_feature(enable = "avx512f,popcnt,bmi1")]
-    fn diagnose<T: Prediction>(&self, row: &[T], counts: &mut [__m512i; 2]) -> (u32, bool, usize) {
+    fn diagnose(&self, row: &[T], counts: &mut [__m512i; 2]) -> (u32, bool, usize) {
         super::prefetch_ahead(row);
-        let (mut n, mut nan, mut first) = (0u32, 0 as __mmask8, UNKNOWN);
-        let groups = 1 + (self.k > 8) as usize;
+        let (mut n, mut nan, mut first) = (0u32, 0u32, UNKNOWN);
+        let groups = 1 + (self.lanes[1] != 0) as usize;
         for (g, count) in counts.iter_mut().enumerate().take(groups) {
-            let (p, out) = self.group(row, g);
-            *count = _mm512_mask_add_epi64(*count, out, *count, _mm512_set1_epi64(1));
-            nan |= _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(self.lanes[g], p, p);
-            let found = 8 * g + out.trailing_zeros() as usize;
+            let (out, nans) = self.group(row, g);
+            *count = _mm512_mask_add_epi32(*count, out as __mmask16, *count, _mm512_set1_epi32(1));
             first = if first == UNKNOWN && out != 0 {
-                found
+                T::W512 * g + out.trailing_zeros() as usize
             } else {
                 first
             };
             n += out.count_ones();
+            nan |= nans;
         }
         (n, nan != 0, first)
     }
 }
 
+/// Rows per flush of the in-register u32 counts (they cannot overflow).
+const FLUSH_ROWS: usize = 1 << 30;
+
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
-    if b.len() <= ShortRow::MAX {
-        let short = ShortRow::new(b);
+    if !ShortRow::<T>::fits(b.len()) {
+        return diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts));
+    }
+    let short = ShortRow::<T>::new(b);
+    // Chunks of FLUSH_ROWS keep the u32 counts held in registers from overflowing.
+    for (c, out) in out.chunks_mut(FLUSH_ROWS).enumerate() {
+        let first = c * FLUSH_ROWS;
         let mut counts = [_mm512_setzero_si512(); 2];
-        diagnose_impl(m, b, out, t, |row, _, _| short.diagnose(row, &mut counts));
-        let mut lanes = [0u64; 16];
-        // SAFETY: AVX-512F is enabled; `lanes` holds the two vectors.
-        unsafe {
-            _mm512_storeu_epi64(lanes.as_mut_ptr() as *mut i64, counts[0]);
-            _mm512_storeu_epi64(lanes.as_mut_ptr().add(8) as *mut i64, counts[1]);
+        let rows = m.slice_rows(first, first + out.len());
+        diagnose_impl(rows, b, out, t, |row, _, _| short.diagnose(row, &mut counts));
+        let mut lanes = [[0u32; 16]; 2];
+        for (lane, count) in lanes.iter_mut().zip(counts) {
+            // SAFETY: AVX-512F is enabled; `lane` holds sixteen u32.
+            unsafe { _mm512_storeu_si512(lane.as_mut_ptr() as *mut __m512i, count) };
         }
-        for (total, add) in t.per_sensor.iter_mut().zip(lanes) {
-            *total += add;
+        let sensors = lanes[0][..T::W512].iter().chain(&lanes[1][..T::W512]);
+        for (total, &add) in t.per_sensor.iter_mut().zip(sensors) {
+            *total += add as u64;
         }
-    } else {
-        diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
     }
 }
 
 #[target_feature(enable = "avx512f")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    if plan.all.len() <= ShortRow::MAX {
-        let short = ShortRow::new(&plan.all);
+    if ShortRow::<T>::fits(plan.all.len()) {
+        let short = ShortRow::<T>::new(&plan.all);
         screen_impl(m, plan, out, |row, _| short.rejected(row))
     } else {
-        screen_impl(m, plan, out, |row, b| row_rejected(row, b))
+        screen_impl(m, plan, out, |row, plan| row_rejected(row, plan))
     }
 }

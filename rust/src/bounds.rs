@@ -1,0 +1,118 @@
+//! Per-sensor data the row kernels read: the measurements and thresholds of
+//! Eq. 8, the same test as acceptance intervals in prediction space, and the
+//! screening order.
+
+use crate::acceptance::{accepted_f32, accepted_f64};
+use crate::error::{EdmfError, Result};
+
+/// Sensors screened together: one or two vectors at every instruction-set
+/// level, and one branch in the row loop.
+pub const BLOCK: usize = 16;
+
+/// Measurements and thresholds laid out per sensor, in column order.
+#[derive(Debug, Clone)]
+pub struct SensorBounds {
+    pub measured: Vec<f64>,
+    pub low: Vec<f64>,
+    pub high: Vec<f64>,
+    /// `[p_low, p_high]` per sensor for f64 and f32 predictions (`acceptance`),
+    /// padded with NaN (rejects) to a whole number of blocks, so that vector
+    /// loads of them never run past the end.
+    pub(crate) accept64: [Vec<f64>; 2],
+    pub(crate) accept32: [Vec<f32>; 2],
+}
+
+impl SensorBounds {
+    /// Bounds of every sensor; all values must be finite, which makes the
+    /// acceptance intervals exact.
+    pub fn new(measured: &[f64], low: &[f64], high: &[f64]) -> Result<Self> {
+        let n = measured.len();
+        if low.len() != n || high.len() != n {
+            return Err(EdmfError::invalid(
+                "thresholds",
+                format!("{n} low and high bounds, got {} and {}", low.len(), high.len()),
+            ));
+        }
+        let all = measured.iter().chain(low).chain(high);
+        if let Some(v) = all.into_iter().find(|v| !v.is_finite()) {
+            return Err(EdmfError::invalid("bounds", format!("finite values, got {v}")));
+        }
+        let padded = n.div_ceil(BLOCK) * BLOCK;
+        let mut accept64 = [vec![f64::NAN; padded], vec![f64::NAN; padded]];
+        let mut accept32 = [vec![f32::NAN; padded], vec![f32::NAN; padded]];
+        for j in 0..n {
+            (accept64[0][j], accept64[1][j]) = accepted_f64(measured[j], low[j], high[j]);
+            (accept32[0][j], accept32[1][j]) = accepted_f32(measured[j], low[j], high[j]);
+        }
+        Ok(SensorBounds {
+            measured: measured.to_vec(),
+            low: low.to_vec(),
+            high: high.to_vec(),
+            accept64,
+            accept32,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.measured.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.measured.is_empty()
+    }
+}
+
+/// Visiting order for screening: blocks of [`BLOCK`] sensors, the block whose
+/// sensors rejected most instances of a sample first, so that a row stops
+/// after as few vector tests as possible. The order changes speed only:
+/// a row is a candidate iff no sensor rejects it, in whatever order.
+#[derive(Debug, Clone)]
+pub struct ScreenPlan {
+    pub(crate) all: SensorBounds,
+    /// First sensor of each block, in visiting order.
+    pub(crate) blocks: Vec<usize>,
+}
+
+impl ScreenPlan {
+    /// `rejections[j]`: instances sensor j rejected in a sample of instances.
+    pub fn new(bounds: &SensorBounds, rejections: &[u64]) -> Self {
+        let mut blocks: Vec<usize> = (0..bounds.len()).step_by(BLOCK).collect();
+        let rejected = |&s: &usize| -> u64 { rejections[s..(s + BLOCK).min(rejections.len())].iter().sum() };
+        // Stable: ties keep column order.
+        blocks.sort_by_key(|s| std::cmp::Reverse(rejected(s)));
+        ScreenPlan {
+            all: bounds.clone(),
+            blocks,
+        }
+    }
+
+    /// First sensor of each block, most rejecting block first.
+    pub fn blocks(&self) -> &[usize] {
+        &self.blocks
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_that_reject_most_come_first() {
+        let b = SensorBounds::new(&[0.0; 40], &[-1.0; 40], &[1.0; 40]).unwrap();
+        let mut rejections = vec![0u64; 40];
+        rejections[35] = 5; // block 32..40
+        rejections[20] = 3; // block 16..32
+        assert_eq!(ScreenPlan::new(&b, &rejections).blocks(), &[32, 16, 0]);
+        assert_eq!(ScreenPlan::new(&b, &[0; 40]).blocks(), &[0, 16, 32]);
+    }
+
+    #[test]
+    fn bounds_must_be_finite_and_of_one_length() {
+        assert!(SensorBounds::new(&[0.0], &[-1.0], &[f64::INFINITY]).is_err());
+        assert!(SensorBounds::new(&[f64::NAN], &[-1.0], &[1.0]).is_err());
+        assert!(SensorBounds::new(&[0.0, 0.0], &[-1.0], &[1.0]).is_err());
+        let b = SensorBounds::new(&[0.0; 3], &[-1.0; 3], &[1.0; 3]).unwrap();
+        assert_eq!(b.accept64[0].len(), BLOCK);
+        assert!(b.accept32[1][3].is_nan());
+    }
+}
