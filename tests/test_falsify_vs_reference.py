@@ -88,6 +88,43 @@ def test_screening_gives_the_same_candidates(problem):
     assert result.per_sensor_falsified is None and result.n_violated is None
 
 
+@st.composite
+def edge_problems(draw):
+    """Predictions on the rounded edges y + low, y + high and one or two floats
+    either side, where the kernels' acceptance intervals must round exactly
+    like the residual test; rows long enough for the vector and block paths."""
+    n = draw(st.integers(1, 200))
+    n_m = draw(st.sampled_from([1, 3, 8, 9, 16, 17, 31, 33, 50]))
+    dtype = draw(st.sampled_from([np.float64, np.float32]))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    scale = 10.0 ** draw(st.integers(-6, 6))
+    y = rng.normal(0.0, scale, n_m)
+    low = -rng.uniform(0.0, 1e-3, n_m) * scale
+    high = rng.uniform(0.0, 1e-3, n_m) * scale
+    edge = np.where(rng.random((n, n_m)) < 0.5, y + low, y + high).astype(dtype)
+    steps = rng.integers(-2, 3, (n, n_m))
+    toward = np.where(steps > 0, np.inf, -np.inf).astype(dtype)
+    predictions = edge.copy()
+    for _ in range(2):
+        moving = np.abs(steps) > 0
+        predictions[moving] = np.nextafter(predictions[moving], toward[moving])
+        steps = steps - np.sign(steps)
+    inside = rng.random(n) < 0.5  # some rows wholly near the measurement, so candidates exist
+    predictions[inside] = y.astype(dtype)
+    return predictions, y, edmf_rs.Thresholds(low, high)
+
+
+@given(problem=edge_problems(), diagnostics=st.booleans())
+def test_floats_next_to_the_bounds_match_reference(problem, diagnostics):
+    predictions, y, thresholds = problem
+    result = edmf_rs.falsify(predictions, y, thresholds, diagnostics=diagnostics)
+    expected = reference.falsify(predictions, y, thresholds)
+    if diagnostics:
+        assert_same(result, expected)
+    else:
+        np.testing.assert_array_equal(result.candidate_indices, expected.candidate_indices)
+
+
 def test_npy_file_matches_in_memory(tmp_path):
     rng = np.random.default_rng(7)
     y = rng.normal(size=5)
