@@ -45,7 +45,7 @@ def threads():
 
 
 def _reader_threads():
-    return [t for t in threading.enumerate() if t.name == "edmf-rs-npy-reader"]
+    return [t for t in threading.enumerate() if t.name.startswith("edmf-rs-npy-")]  # reader and helper
 
 
 # -- files -----------------------------------------------------------------
@@ -147,11 +147,25 @@ def test_truncated_file_is_refused_naming_it(tmp_path):
         edmf_rs.falsify(path, y, t)
 
 
-def test_file_truncated_while_read_fails_cleanly(tmp_path):
-    predictions, _, _ = _data(20_000)
+@pytest.mark.parametrize("order, dtype", [("C", np.float64), ("F", np.float32), ("C", ">f4")])
+def test_large_reads_split_between_two_threads_read_every_byte(tmp_path, order, dtype):
+    # Chunks of several MiB are read half by a helper thread (positional reads).
+    rng = np.random.default_rng(11)
+    predictions = np.asarray(rng.normal(size=(170_003, 7)), order=order).astype(dtype)
+    path = tmp_path / "big.npy"
+    np.save(path, predictions)
+    assert npy.CHUNK_BYTES >= 2 * npy.SPLIT_BYTES
+    got = np.concatenate([b.copy() for b in npy.read_chunks(path, start=5)])
+    np.testing.assert_array_equal(got, predictions[5:].astype(got.dtype))
+    assert not _reader_threads()
+
+
+@pytest.mark.parametrize("rows, chunk_rows", [(20_000, 1000), (200_000, 50_000)])  # the second splits reads
+def test_file_truncated_while_read_fails_cleanly(tmp_path, rows, chunk_rows):
+    predictions, _, _ = _data(rows)
     path = tmp_path / "shrinking.npy"
     np.save(path, predictions)
-    stream = npy.read_chunks(path, chunk_rows=1000)
+    stream = npy.read_chunks(path, chunk_rows=chunk_rows)
     next(stream)
     with open(path, "r+b") as fh:
         fh.truncate(200)

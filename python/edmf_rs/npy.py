@@ -1,8 +1,9 @@
 """Chunked reading of ``.npy`` files of any size.
 
-Rows are read with ``readinto`` into two reused buffers by a reader thread, so
-reading chunk k+1 overlaps the caller's work on chunk k (both release the
-GIL) and memory stays a few chunks whatever the file size. ``np.load`` and
+Rows are read with positional reads into two reused buffers by a reader
+thread (a helper thread reads half of each chunk), so reading chunk k+1
+overlaps the caller's work on chunk k (both release the GIL) and memory stays
+a few chunks whatever the file size. ``np.load`` and
 memory maps are avoided on purpose: mapped pages count towards the process's
 resident memory as a whole file streams through.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 import os
 import queue
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Iterator
 
 import numpy as np
@@ -22,6 +24,8 @@ from numpy.lib import format as npy_format
 CHUNK_BYTES = 4 * 2**20
 #: Chunks after the one being read that the OS is asked to fetch meanwhile.
 AHEAD = 4
+#: Reads at least this large are split between the reader thread and a helper.
+SPLIT_BYTES = 2**20
 
 
 class NpyFile:
@@ -29,6 +33,7 @@ class NpyFile:
 
     def __init__(self, path, name: str = "predictions"):
         self.path, self.name = path, name
+        self.helper = None  # a ThreadPoolExecutor that reads half of each large read
         try:
             self.fp = open(os.fspath(path), "rb", buffering=0)
         except OSError as exc:
@@ -112,10 +117,26 @@ class NpyFile:
 
     def _fill(self, out: np.ndarray, position: int) -> None:
         view = memoryview(out).cast("B")
-        self.fp.seek(position)
+        if self.helper is not None and view.nbytes >= SPLIT_BYTES:
+            # Copying out of the page cache is what limits a warm file: two
+            # threads copy twice as much while the kernel works on a chunk.
+            half = view.nbytes // 2
+            second = self.helper.submit(self._read_exact, view[half:], position + half)
+            try:
+                self._read_exact(view[:half], position)
+            finally:
+                second.result()  # never leave the helper writing into a buffer
+        else:
+            self._read_exact(view, position)
+
+    def _read_exact(self, view: memoryview, position: int) -> None:
         done = 0
-        while done < view.nbytes:  # a raw read may return fewer bytes than asked
-            got = self.fp.readinto(view[done:])
+        while done < view.nbytes:  # a read may return fewer bytes than asked
+            if hasattr(os, "preadv"):  # positional: safe from two threads at once
+                got = os.preadv(self.fp.fileno(), [view[done:]], position + done)
+            else:
+                self.fp.seek(position + done)
+                got = self.fp.readinto(view[done:])
             if not got:
                 raise ValueError(f"{self.name}: {self.path!s} ended early (it was truncated while being read)")
             done += got
@@ -178,6 +199,8 @@ def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.n
     for _ in range(2):
         free.put(_Slot(f, rows))
     stop = threading.Event()
+    if hasattr(os, "preadv"):
+        f.helper = ThreadPoolExecutor(max_workers=1, thread_name_prefix="edmf-rs-npy-helper")
 
     def reader() -> None:
         try:
@@ -208,3 +231,6 @@ def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.n
         stop.set()
         free.put(None)
         thread.join()
+        if f.helper is not None:
+            f.helper.shutdown()
+            f.helper = None
