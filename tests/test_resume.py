@@ -351,6 +351,30 @@ def test_a_folder_serves_one_run_at_a_time(tmp_path):
     _same(edmf_rs.falsify_model(model, theta, y, t, checkpoint=folder), got)
 
 
+def test_a_process_the_model_forks_does_not_keep_the_folder_locked(tmp_path):
+    theta = _theta(2_000)
+    _, y, t = _case()
+    children = []
+
+    def model(batch):
+        if not children:  # e.g. a worker pool started by fork, outliving the run
+            pid = os.fork()
+            if pid == 0:
+                time.sleep(30)
+                os._exit(0)
+            children.append(pid)
+        return _model(batch)
+
+    try:
+        first = edmf_rs.falsify_model(model, theta, y, t, checkpoint=tmp_path / "run", batch_size=500)
+        # The child still holds the open lock file; the folder must be free anyway.
+        _same(edmf_rs.falsify_model(model, theta, y, t, checkpoint=tmp_path / "run", batch_size=500), first)
+    finally:
+        for pid in children:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+
+
 # -- full disk ---------------------------------------------------------------
 
 @pytest.mark.parametrize("writer", ["save_npy", "save_state"])

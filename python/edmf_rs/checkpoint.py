@@ -17,6 +17,7 @@ import numbers
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -111,24 +112,41 @@ class Checkpoint:
             raise
 
     def _acquire(self):
-        """Locks the folder against a second run writing into it at once."""
+        """Locks the folder against a second run writing into it at once.
+
+        Where nothing can be written (a read-only copy of a finished run) or
+        the file system has no locks, the run goes on unlocked: the first has
+        nothing to guard, the second is warned about.
+        """
+        if fcntl is None:
+            return None
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
             fh = open(self.folder / LOCK, "a")
-        except OSError as exc:
-            raise ValueError(f"checkpoint: cannot use folder {self.folder}: {exc.strerror}") from None
-        try:
-            if fcntl is not None:
-                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
+            try:
+                fh = open(self.folder / LOCK)  # flock works on a read-only file too
+            except OSError:
+                return None
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
             fh.close()
             raise ValueError(f"checkpoint: folder {self.folder} is in use by another run "
                              "(wait for it to finish, or give another folder)") from None
+        except OSError as exc:
+            fh.close()
+            warnings.warn(f"checkpoint: cannot lock folder {self.folder} ({exc.strerror}); "
+                          "make sure no other run uses it meanwhile", stacklevel=4)
+            return None
         return fh
 
     def close(self) -> None:
         """Releases the folder (idempotent)."""
         if self._lock is not None:
+            # Unlock explicitly: a process the model forked shares the open
+            # file, and closing it here alone would leave the lock held.
+            fcntl.flock(self._lock, fcntl.LOCK_UN)
             self._lock.close()
             self._lock = None
 

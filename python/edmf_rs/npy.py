@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 import queue
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Iterator
 
 import numpy as np
@@ -33,7 +32,8 @@ class NpyFile:
 
     def __init__(self, path, name: str = "predictions"):
         self.path, self.name = path, name
-        self.helper = None  # a ThreadPoolExecutor that reads half of each large read
+        self.helper: _Helper | None = None  # reads half of each large read
+        self.busy = False  # reader threads may still be using the file
         try:
             self.fp = open(os.fspath(path), "rb", buffering=0)
         except OSError as exc:
@@ -121,11 +121,11 @@ class NpyFile:
             # Copying out of the page cache is what limits a warm file: two
             # threads copy twice as much while the kernel works on a chunk.
             half = view.nbytes // 2
-            second = self.helper.submit(self._read_exact, view[half:], position + half)
+            self.helper.submit(self._read_exact, view[half:], position + half)
             try:
                 self._read_exact(view[:half], position)
             finally:
-                second.result()  # never leave the helper writing into a buffer
+                self.helper.result()  # never leave the helper writing into a buffer
         else:
             self._read_exact(view, position)
 
@@ -153,6 +153,40 @@ def native(block: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         out = np.empty(block.shape, dtype=np.float64, order="F" if block.flags.f_contiguous else "C")
     np.copyto(out, block, casting="unsafe")
     return out
+
+
+class _Helper:
+    """A daemon thread running one read at a time for the reader thread (a
+    daemon too, so a read stalled on a dead network share never holds up the
+    interpreter's exit)."""
+
+    def __init__(self):
+        self.tasks: queue.Queue = queue.Queue()
+        self.done: queue.Queue = queue.Queue()
+        self.thread = threading.Thread(target=self._run, name="edmf-rs-npy-helper", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while (task := self.tasks.get()) is not None:
+            fn, args = task
+            try:
+                fn(*args)
+                self.done.put(None)
+            except BaseException as exc:  # re-raised by result()
+                self.done.put(exc)
+
+    def submit(self, fn, *args) -> None:
+        self.tasks.put((fn, args))
+
+    def result(self) -> None:
+        exc = self.done.get()
+        if exc is not None:
+            raise exc
+
+    def stop(self, wait: bool) -> None:
+        self.tasks.put(None)
+        if wait:
+            self.thread.join()
 
 
 class _Slot:
@@ -185,7 +219,8 @@ def read_chunks(path, chunk_rows: int | None = None, name: str = "predictions",
     try:
         yield from _prefetched(f, chunk_rows, start)
     finally:
-        f.close()
+        if not f.busy:  # else the reader threads still read it; they are daemons
+            f.close()
 
 
 def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.ndarray]:
@@ -200,7 +235,7 @@ def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.n
         free.put(_Slot(f, rows))
     stop = threading.Event()
     if hasattr(os, "preadv"):
-        f.helper = ThreadPoolExecutor(max_workers=1, thread_name_prefix="edmf-rs-npy-helper")
+        f.helper = _Helper()
 
     def reader() -> None:
         try:
@@ -230,7 +265,11 @@ def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.n
     finally:
         stop.set()
         free.put(None)
-        thread.join()
-        if f.helper is not None:
-            f.helper.shutdown()
-            f.helper = None
+        f.busy = True
+        try:
+            thread.join()  # a Ctrl-C here leaves the file open for the threads
+            f.busy = False
+        finally:
+            if f.helper is not None:
+                f.helper.stop(wait=not f.busy)
+                f.helper = None

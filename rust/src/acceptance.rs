@@ -8,6 +8,10 @@
 //! comparisons with no subtraction and bit-for-bit the same verdict. The same
 //! holds for float32 predictions (widened exactly, then subtracted in f64), so
 //! they are compared as float32: twice the lanes per vector and no widening.
+//!
+//! This assumes IEEE default arithmetic (round to nearest, subnormals kept).
+//! Rust never changes it, but a library built with `-ffast-math` may set
+//! flush-to-zero on a thread; the kernels could then disagree on subnormals.
 
 /// Floats in their total order, as integers (IEEE-754 `totalOrder` keys).
 pub trait Ordered: Copy {

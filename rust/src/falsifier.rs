@@ -130,9 +130,32 @@ impl Falsifier {
                 ),
             ));
         }
-        let rows = chunk.rows();
-        let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
         let (kept_candidates, kept_violations) = (self.candidates.len(), self.violations.len());
+        match self.falsify_slabs(chunk, pool, stop) {
+            Ok(chunk_tally) => {
+                self.tally.add(&chunk_tally);
+                self.n_instances += chunk.rows() as u64;
+                Ok(())
+            }
+            Err(e) => {
+                // Whatever stopped the chunk (Ctrl-C, out of memory), it leaves
+                // no trace: callers resume from the chunk's first row.
+                self.candidates.truncate(kept_candidates);
+                self.violations.truncate(kept_violations);
+                Err(e)
+            }
+        }
+    }
+
+    /// The slabs of one chunk; the chunk's tally, or the error that stopped it.
+    fn falsify_slabs<T: Prediction>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        stop: &mut dyn FnMut() -> bool,
+    ) -> Result<Tally> {
+        let (rows, n_m) = (chunk.rows(), self.n_sensors());
+        let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
         let mut chunk_tally = Tally::zeros(n_m);
         for first in (0..rows).step_by(slab_rows) {
             let last = (first + slab_rows).min(rows);
@@ -170,14 +193,10 @@ impl Falsifier {
                 _ => {}
             }
             if stop() {
-                self.candidates.truncate(kept_candidates);
-                self.violations.truncate(kept_violations);
                 return Err(EdmfError::Interrupted);
             }
         }
-        self.tally.add(&chunk_tally);
-        self.n_instances += rows as u64;
-        Ok(())
+        Ok(chunk_tally)
     }
 }
 
@@ -319,9 +338,17 @@ mod tests {
         assert!(f
             .update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false)
             .is_err());
-        let data = vec![0.0; 2 * 2_000_000];
-        let m = Matrix::row_major(&data, 2_000_000, 2).unwrap();
-        assert_eq!(f.update(m, &p, &mut || true), Err(EdmfError::Interrupted));
+        // Stopped after the first slab of the chunk: its candidates go too.
+        let rows = SLAB_ELEMENTS; // two slabs of two sensors
+        let data = vec![0.0; 2 * rows];
+        let m = Matrix::row_major(&data, rows, 2).unwrap();
+        let mut asked = 0;
+        let mut second = || {
+            asked += 1;
+            asked == 2
+        };
+        assert_eq!(f.update(m, &p, &mut second), Err(EdmfError::Interrupted));
+        assert_eq!(asked, 2);
         assert_eq!(f.n_instances(), 0);
         assert!(f.candidates().is_empty());
         assert_eq!(f.violations().unwrap().len(), 0);

@@ -247,6 +247,10 @@ impl Isa {
 /// Writes the number of rejecting sensors of each row of `m` into `out` and
 /// adds the per-sensor counts to `tally`. `b` must be in column order. An
 /// `isa` the CPU does not run falls back to the portable kernel.
+///
+/// # Panics
+/// If `m` has not one column per sensor of `b`, or `out` not one value per
+/// row (a caller's bug: `Falsifier::update` checks widths and returns errors).
 pub fn diagnose_with<T: Prediction>(
     isa: Isa,
     m: Matrix<'_, T>,
@@ -254,7 +258,10 @@ pub fn diagnose_with<T: Prediction>(
     out: &mut [u32],
     tally: &mut Tally,
 ) {
-    debug_assert_eq!(out.len(), m.rows());
+    assert!(
+        m.cols() == b.len() && out.len() == m.rows(),
+        "one column per sensor, one output per row"
+    );
     match isa {
         // SAFETY: the CPU runs the level (checked by `supported`).
         #[cfg(target_arch = "x86_64")]
@@ -267,8 +274,14 @@ pub fn diagnose_with<T: Prediction>(
 
 /// Writes 0 for candidates and 1 for falsified instances, stopping early in
 /// each row once a sensor rejects it.
+///
+/// # Panics
+/// As [`diagnose_with`].
 pub fn screen_with<T: Prediction>(isa: Isa, m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    debug_assert_eq!(out.len(), m.rows());
+    assert!(
+        m.cols() == plan.all.len() && out.len() == m.rows(),
+        "one column per sensor, one output per row"
+    );
     match isa {
         // SAFETY: the CPU runs the level (checked by `supported`).
         #[cfg(target_arch = "x86_64")]

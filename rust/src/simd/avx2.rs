@@ -2,9 +2,7 @@
 //! with the f64 acceptance intervals; the last `k % 4` sensors of a row (and
 //! of a block) are tested one by one.
 
-use crate::kernel::{
-    diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK, UNKNOWN,
-};
+use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
@@ -26,8 +24,8 @@ fn outside1(p: f64, accept: &[Vec<f64>; 2], j: usize) -> bool {
     !(accept[0][j] <= p && p <= accept[1][j])
 }
 
-/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row; adds
-/// every rejection to `counts`.
+/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row (the
+/// last sensor when none rejects); adds every rejection to `counts`.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
@@ -35,7 +33,9 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     assert!(accept[0].len() >= k && counts.len() >= k);
     super::prefetch_ahead(row);
     let whole = k - k % 4;
-    let mut first = UNKNOWN;
+    // The lowest rejecting position, or past the row: branch-free, since which
+    // sensor rejects varies at random from row to row.
+    let mut first = usize::MAX;
     // SAFETY: AVX2 is enabled; every index below `whole` is within `row`,
     // the acceptance vectors and `counts`.
     let (mut n, mut nan) = unsafe {
@@ -45,11 +45,7 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
             let p = T::load4(row.as_ptr().add(j));
             let rejects = outside4(p, accept, j);
             let bits = _mm256_movemask_pd(rejects);
-            first = if first == UNKNOWN && bits != 0 {
-                j + bits.trailing_zeros() as usize
-            } else {
-                first
-            };
+            first = first.min(j + bits.trailing_zeros() as usize);
             let out = _mm256_castpd_si256(rejects);
             // An all-ones lane is -1: subtracting it counts one rejection.
             let c = counts.as_mut_ptr().add(j) as *mut __m256i;
@@ -64,14 +60,12 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     for j in whole..k {
         let p = row[j].to_f64();
         let v = outside1(p, accept, j);
-        if v && first == UNKNOWN {
-            first = j;
-        }
+        first = first.min(if v { j } else { usize::MAX });
         counts[j] += v as u64;
         n += v as u32;
         nan |= p.is_nan();
     }
-    (n, nan, first)
+    (n, nan, first.min(k.saturating_sub(1)))
 }
 
 /// True if any sensor rejects the row, visiting the plan's blocks in order

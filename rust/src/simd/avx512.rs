@@ -2,9 +2,7 @@
 //! sixteen) with the acceptance intervals, straight into mask registers; the
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
-use crate::kernel::{
-    diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK, UNKNOWN,
-};
+use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
@@ -46,15 +44,18 @@ unsafe fn add_counts<T: Prediction>(counts: &mut [u64], j: usize, lanes: u32, ou
     }
 }
 
-/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row; adds
-/// every rejection to `counts`. Whole vectors first, then one masked tail.
+/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row (the
+/// last sensor when none rejects); adds every rejection to `counts`. Whole
+/// vectors first, then one masked tail.
 #[inline]
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
     let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
     assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && counts.len() >= k);
     super::prefetch_ahead(row);
-    let (mut n, mut nan, mut first) = (0u32, 0u32, UNKNOWN);
+    // `first` is the lowest rejecting position, or past the row: branch-free,
+    // since which sensor rejects varies at random from row to row.
+    let (mut n, mut nan, mut first) = (0u32, 0u32, usize::MAX);
     let whole = k - k % w;
     let mut tally = |j: usize, lanes: u32| {
         // SAFETY: AVX-512F is enabled; the lanes of `lanes` lie below `k`,
@@ -62,11 +63,7 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
         let (out, nans) = unsafe { group(row, accept, j, lanes) };
         unsafe { add_counts::<T>(counts, j, lanes, out) };
         n += out.count_ones();
-        first = if first == UNKNOWN && out != 0 {
-            j + out.trailing_zeros() as usize
-        } else {
-            first
-        };
+        first = first.min(j + out.trailing_zeros() as usize);
         nan |= nans;
     };
     for j in (0..whole).step_by(w) {
@@ -75,7 +72,7 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     if whole < k {
         tally(whole, prefix(k - whole));
     }
-    (n, nan != 0, first)
+    (n, nan != 0, first.min(k.saturating_sub(1)))
 }
 
 /// True if any sensor rejects the row, visiting the plan's blocks in order
@@ -173,20 +170,17 @@ impl<T: Prediction> ShortRow<T> {
     #[target_feature(enable = "avx512f,popcnt,bmi1")]
     fn diagnose(&self, row: &[T], counts: &mut [__m512i; 2]) -> (u32, bool, usize) {
         super::prefetch_ahead(row);
-        let (mut n, mut nan, mut first) = (0u32, 0u32, UNKNOWN);
+        let (mut rejects, mut nan) = (0u32, 0u32);
         let groups = 1 + (self.lanes[1] != 0) as usize;
         for (g, count) in counts.iter_mut().enumerate().take(groups) {
             let (out, nans) = self.group(row, g);
             *count = _mm512_mask_add_epi32(*count, out as __mmask16, *count, _mm512_set1_epi32(1));
-            first = if first == UNKNOWN && out != 0 {
-                T::W512 * g + out.trailing_zeros() as usize
-            } else {
-                first
-            };
-            n += out.count_ones();
+            rejects |= out << (T::W512 * g);
             nan |= nans;
         }
-        (n, nan != 0, first)
+        // Branch-free: which sensor rejects varies at random from row to row.
+        let first = (rejects.trailing_zeros() as usize).min(self.k.saturating_sub(1));
+        (rejects.count_ones(), nan != 0, first)
     }
 }
 
