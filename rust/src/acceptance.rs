@@ -105,17 +105,11 @@ pub fn accepted_f32(measured: f64, low: f64, high: f64) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::uniform;
 
     fn literal(p: f64, y: f64, lo: f64, hi: f64) -> bool {
         let r = p - y;
         r >= lo && r <= hi
-    }
-
-    fn xorshift(state: &mut u64) -> f64 {
-        *state ^= *state << 13;
-        *state ^= *state >> 7;
-        *state ^= *state << 17;
-        (*state >> 11) as f64 / (1u64 << 53) as f64
     }
 
     #[test]
@@ -148,10 +142,10 @@ mod tests {
     fn interval_matches_the_residual_test() {
         let mut s = 0x1234_5678_9abc_def1u64;
         for case in 0..3000 {
-            let scale = 10f64.powi((xorshift(&mut s) * 40.0) as i32 - 20);
-            let y = (xorshift(&mut s) - 0.5) * scale * if case % 7 == 0 { 1e10 } else { 1.0 };
-            let a = (xorshift(&mut s) - 0.5) * scale;
-            let b = a + xorshift(&mut s) * scale * if case % 5 == 0 { 0.0 } else { 1.0 };
+            let scale = 10f64.powi((uniform(&mut s) * 40.0) as i32 - 20);
+            let y = (uniform(&mut s) - 0.5) * scale * if case % 7 == 0 { 1e10 } else { 1.0 };
+            let a = (uniform(&mut s) - 0.5) * scale;
+            let b = a + uniform(&mut s) * scale * if case % 5 == 0 { 0.0 } else { 1.0 };
             let (lo, hi) = accepted_f64(y, a, b);
             let (lo32, hi32) = accepted_f32(y, a, b);
             let mut probes = vec![lo, hi, y + a, y + b, 0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY];
@@ -162,7 +156,7 @@ mod tests {
                 }
             }
             for _ in 0..8 {
-                probes.push(y + (xorshift(&mut s) * 3.0 - 1.0) * scale);
+                probes.push(y + (uniform(&mut s) * 3.0 - 1.0) * scale);
             }
             for p in probes {
                 assert_eq!(

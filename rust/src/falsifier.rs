@@ -277,6 +277,7 @@ fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &ScreenPlan, out: &mut [u
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::uniform;
 
     fn pool(n: usize) -> ThreadPool {
         rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
@@ -285,14 +286,7 @@ mod tests {
     /// Deterministic pseudo-random predictions around the measurements.
     fn predictions(n: usize, n_m: usize) -> Vec<f64> {
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        (0..n * n_m)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 11) as f64 / (1u64 << 53) as f64 * 2.2 - 1.1
-            })
-            .collect()
+        (0..n * n_m).map(|_| uniform(&mut state) * 2.2 - 1.1).collect()
     }
 
     fn run(data: &[f64], n_m: usize, chunk_rows: usize, threads: usize, mode: Mode) -> Falsifier {

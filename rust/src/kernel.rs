@@ -368,12 +368,7 @@ mod tests {
     #[test]
     fn vector_kernels_round_like_the_residual_test() {
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = || crate::testing::uniform(&mut state);
         for k in [3, 8, 17, 33] {
             let y: Vec<f64> = (0..k).map(|_| (uniform() - 0.5) * 1e3).collect();
             let lo: Vec<f64> = (0..k).map(|_| -uniform() * 1e-3).collect();

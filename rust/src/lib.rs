@@ -18,6 +18,8 @@ pub mod kernel;
 pub mod matrix;
 #[cfg(target_arch = "x86_64")]
 mod simd;
+#[cfg(test)]
+mod testing;
 pub mod thresholds;
 
 pub use error::{EdmfError, Result};
