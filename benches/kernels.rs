@@ -93,6 +93,71 @@ fn isa_levels(c: &mut Criterion) {
     group.finish();
 }
 
+/// A plain sum at the widest vectors this CPU has: the fastest way to read.
+fn bare_sum(values: &[f64]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: AVX-512F was just detected.
+        return unsafe { sum512(values) };
+    }
+    // Eight independent sums, so the adds never wait on each other.
+    let mut acc = [0.0f64; 8];
+    for v in values.chunks_exact(8) {
+        for l in 0..8 {
+            acc[l] += v[l];
+        }
+    }
+    acc.iter().sum::<f64>() + values.chunks_exact(8).remainder().iter().sum::<f64>()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn sum512(values: &[f64]) -> f64 {
+    use std::arch::x86_64::*;
+    let mut acc = [_mm512_setzero_pd(); 4];
+    let blocks = values.chunks_exact(32);
+    let rest: f64 = blocks.remainder().iter().sum();
+    for b in blocks {
+        for (k, a) in acc.iter_mut().enumerate() {
+            // SAFETY: `b` holds 32 values, so 8 from 8k are in bounds.
+            *a = _mm512_add_pd(*a, unsafe { _mm512_loadu_pd(b.as_ptr().add(8 * k)) });
+        }
+    }
+    let total = _mm512_add_pd(_mm512_add_pd(acc[0], acc[1]), _mm512_add_pd(acc[2], acc[3]));
+    _mm512_reduce_add_pd(total) + rest
+}
+
+/// The memory floor: falsifying 2,000,000 x 50 float64 (800 MB, far beyond
+/// the caches) with every instance a candidate, beside a bare parallel sum
+/// over the same bytes. Both report bytes/s; their ratio is how close the
+/// kernel runs to the machine's read bandwidth.
+fn memory_floor(c: &mut Criterion) {
+    let (n, n_m) = (2_000_000, 50);
+    let data: Vec<f64> = values(n * n_m).iter().map(|v| v * 0.1).collect();
+    let thr = Thresholds::new(vec![-10.0; n_m], vec![10.0; n_m]).unwrap();
+    let measured = vec![0.0; n_m];
+    let p = pool(2);
+    let mut group = c.benchmark_group("memory_floor");
+    group.throughput(Throughput::Bytes((n * n_m * 8) as u64));
+    group.bench_function("bare_sum_2_threads", |b| {
+        b.iter(|| {
+            p.install(|| {
+                use rayon::prelude::*;
+                black_box(&data).par_chunks(1 << 16).map(bare_sum).sum::<f64>()
+            })
+        })
+    });
+    group.bench_function("falsify_screen_2_threads", |b| {
+        let m = Matrix::row_major(&data, n, n_m).unwrap();
+        b.iter(|| {
+            let mut f = Falsifier::new(&measured, &thr, Mode::Screen, false).unwrap();
+            f.update(black_box(m), &p, &mut || false).unwrap();
+            assert_eq!(f.candidates().len(), n);
+        })
+    });
+    group.finish();
+}
+
 fn thresholds(c: &mut Criterion) {
     let (n, n_m) = (100_000, 10);
     let data = values(n * n_m);
@@ -111,6 +176,6 @@ fn thresholds(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
-    targets = falsify, isa_levels, thresholds
+    targets = falsify, isa_levels, memory_floor, thresholds
 }
 criterion_main!(benches);
