@@ -87,7 +87,7 @@ fn isa_levels(c: &mut Criterion) {
             })
         });
         group.bench_function(BenchmarkId::new("screen", format!("{isa:?}")), |bench| {
-            bench.iter(|| screen_with(isa, black_box(m), &plan, &mut out))
+            bench.iter(|| screen_with(isa, black_box(m), &b, &plan, &mut out))
         });
     }
     group.finish();

@@ -27,6 +27,8 @@ CHUNK_BYTES = 16 * 2**20
 AHEAD = 4
 #: Reads at least this large are split between the reader thread and a helper.
 SPLIT_BYTES = 2**20
+#: Positional reads (POSIX) are what let two threads read one file at once.
+_PREADV = hasattr(os, "preadv")
 
 
 class NpyFile:
@@ -134,7 +136,7 @@ class NpyFile:
     def _read_exact(self, view: memoryview, position: int) -> None:
         done = 0
         while done < view.nbytes:  # a read may return fewer bytes than asked
-            if hasattr(os, "preadv"):  # positional: safe from two threads at once
+            if _PREADV:
                 got = os.preadv(self.fp.fileno(), [view[done:]], position + done)
             else:
                 self.fp.seek(position + done)
@@ -238,7 +240,7 @@ def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.n
     for _ in range(2):
         free.put(_Slot(f, rows))
     stop = threading.Event()
-    if hasattr(os, "preadv"):
+    if _PREADV:
         f.helper = _Helper()
 
     def reader() -> None:

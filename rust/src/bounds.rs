@@ -68,7 +68,6 @@ impl SensorBounds {
 /// a row is a candidate iff no sensor rejects it, in whatever order.
 #[derive(Debug, Clone)]
 pub struct ScreenPlan {
-    pub(crate) all: SensorBounds,
     /// First sensor of each block, in visiting order.
     pub(crate) blocks: Vec<usize>,
 }
@@ -80,10 +79,7 @@ impl ScreenPlan {
         let rejected = |&s: &usize| -> u64 { rejections[s..(s + BLOCK).min(rejections.len())].iter().sum() };
         // Stable: ties keep column order.
         blocks.sort_by_key(|s| std::cmp::Reverse(rejected(s)));
-        ScreenPlan {
-            all: bounds.clone(),
-            blocks,
-        }
+        ScreenPlan { blocks }
     }
 
     /// First sensor of each block, most rejecting block first.

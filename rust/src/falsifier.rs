@@ -171,7 +171,7 @@ impl Falsifier {
             let tally = pool.install(|| {
                 let tally = match (self.mode, plan) {
                     (Mode::Screen, Some(plan)) => {
-                        screen_parallel(slab, plan, out);
+                        screen_parallel(slab, bounds, plan, out);
                         None
                     }
                     _ => Some(diagnose_parallel(slab, bounds, out)),
@@ -267,10 +267,10 @@ fn diagnose_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mu
 }
 
 /// Runs in the caller's pool.
-fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &ScreenPlan, out: &mut [u32]) {
+fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
     out.par_chunks_mut(BLOCK_ROWS).enumerate().for_each(|(k, o)| {
         let first = k * BLOCK_ROWS;
-        screen(m.slice_rows(first, first + o.len()), b, o);
+        screen(m.slice_rows(first, first + o.len()), b, plan, o);
     })
 }
 

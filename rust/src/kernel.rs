@@ -136,8 +136,7 @@ pub(crate) const UNKNOWN: usize = usize::MAX;
 /// `prediction(j)`, visiting the plan's blocks in order and stopping at the
 /// first block holding a rejection.
 #[inline(always)]
-fn row_rejected(plan: &ScreenPlan, k: usize, prediction: impl Fn(usize) -> f64) -> bool {
-    let b = &plan.all;
+fn row_rejected(b: &SensorBounds, plan: &ScreenPlan, k: usize, prediction: impl Fn(usize) -> f64) -> bool {
     plan.blocks.iter().any(|&s| {
         (s..(s + BLOCK).min(k)).fold(false, |any, j| {
             any | outside(prediction(j), b.measured[j], b.low[j], b.high[j])
@@ -188,14 +187,15 @@ pub(crate) fn diagnose_impl<T: Prediction>(
 #[inline(always)]
 pub(crate) fn screen_impl<T: Prediction>(
     m: Matrix<'_, T>,
+    b: &SensorBounds,
     plan: &ScreenPlan,
     out: &mut [u32],
-    row_kernel: impl Fn(&[T], &ScreenPlan) -> bool,
+    row_kernel: impl Fn(&[T]) -> bool,
 ) {
     for (i, flag) in out.iter_mut().enumerate() {
         let rejected = match m.row_slice(i) {
-            Some(row) => row_kernel(row, plan),
-            None => row_rejected(plan, m.cols(), |j| m.get(i, j).to_f64()),
+            Some(row) => row_kernel(row),
+            None => row_rejected(b, plan, m.cols(), |j| m.get(i, j).to_f64()),
         };
         *flag = rejected as u32;
     }
@@ -273,23 +273,29 @@ pub fn diagnose_with<T: Prediction>(
 }
 
 /// Writes 0 for candidates and 1 for falsified instances, stopping early in
-/// each row once a sensor rejects it.
+/// each row once a sensor rejects it; `plan` orders the sensors of `b`.
 ///
 /// # Panics
 /// As [`diagnose_with`].
-pub fn screen_with<T: Prediction>(isa: Isa, m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
+pub fn screen_with<T: Prediction>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    plan: &ScreenPlan,
+    out: &mut [u32],
+) {
     assert!(
-        m.cols() == plan.all.len() && out.len() == m.rows(),
+        m.cols() == b.len() && out.len() == m.rows(),
         "one column per sensor, one output per row"
     );
     match isa {
         // SAFETY: the CPU runs the level (checked by `supported`).
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::screen(m, plan, out) },
+        Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::screen(m, b, plan, out) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::screen(m, plan, out) },
-        _ => screen_impl(m, plan, out, |row, plan| {
-            row_rejected(plan, row.len(), |j| row[j].to_f64())
+        Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::screen(m, b, plan, out) },
+        _ => screen_impl(m, b, plan, out, |row| {
+            row_rejected(b, plan, row.len(), |j| row[j].to_f64())
         }),
     }
 }
@@ -300,8 +306,8 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
 }
 
 /// [`screen_with`] at the fastest level of this CPU.
-pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_with(Isa::detect(), m, plan, out)
+pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
+    screen_with(Isa::detect(), m, b, plan, out)
 }
 
 #[cfg(test)]

@@ -34,11 +34,11 @@ fn vector_kernels_match_portable_ones() {
             diagnose_with(isa, m32, &b, &mut a, &mut ta);
             diagnose_with(Isa::Portable, m32, &b, &mut c, &mut tc);
             assert_eq!((&a, &ta), (&c, &tc), "{isa:?} f32 diagnose, {k} sensors");
-            screen_with(isa, m32, &plan, &mut a);
-            screen_with(Isa::Portable, m32, &plan, &mut c);
+            screen_with(isa, m32, &b, &plan, &mut a);
+            screen_with(Isa::Portable, m32, &b, &plan, &mut c);
             assert_eq!(a, c, "{isa:?} f32 screen, {k} sensors");
-            screen_with(isa, m, &plan, &mut a);
-            screen_with(Isa::Portable, m, &plan, &mut c);
+            screen_with(isa, m, &b, &plan, &mut a);
+            screen_with(Isa::Portable, m, &b, &plan, &mut c);
             assert_eq!(a, c, "{isa:?} screen, {k} sensors");
         }
         let flags: Vec<u32> = (0..rows).map(|i| (c[i] > 0) as u32).collect();
@@ -96,8 +96,8 @@ fn vector_kernels_round_like_the_residual_test() {
             diagnose_with(isa, m32, &b, &mut a, &mut ta);
             diagnose_with(Isa::Portable, m32, &b, &mut c, &mut tc);
             assert_eq!((&a, &ta), (&c, &tc), "{isa:?} f32, {k} sensors");
-            screen_with(isa, m, &plan, &mut a);
-            screen_with(Isa::Portable, m, &plan, &mut c);
+            screen_with(isa, m, &b, &plan, &mut a);
+            screen_with(Isa::Portable, m, &b, &plan, &mut c);
             assert_eq!(a, c, "{isa:?} f64 screen, {k} sensors");
         }
     }
@@ -117,7 +117,7 @@ fn bounds_are_inclusive_and_nan_is_outside() {
     assert_eq!(t.only_by, vec![2, 0]);
     assert_eq!(t.invalid, 1);
     let mut flags = [9u32; 4];
-    screen(m, &ScreenPlan::new(&b, &[0, 5]), &mut flags);
+    screen(m, &b, &ScreenPlan::new(&b, &[0, 5]), &mut flags);
     assert_eq!(flags, [0, 1, 1, 1]);
 }
 

@@ -72,8 +72,8 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
 /// with one branch per block.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn row_rejected<T: Prediction>(row: &[T], plan: &ScreenPlan) -> bool {
-    let (k, accept) = (row.len(), &plan.all.accept64);
+fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -> bool {
+    let (k, accept) = (row.len(), &b.accept64);
     assert!(accept[0].len() >= k);
     super::prefetch_ahead(row);
     plan.blocks.iter().any(|&s| {
@@ -98,6 +98,6 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
 }
 
 #[target_feature(enable = "avx2")]
-pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_impl(m, plan, out, |row, plan| row_rejected(row, plan))
+pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
+    screen_impl(m, b, plan, out, |row| row_rejected(row, b, plan))
 }

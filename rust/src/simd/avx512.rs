@@ -79,8 +79,8 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
 /// with one branch per block.
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn row_rejected<T: Prediction>(row: &[T], plan: &ScreenPlan) -> bool {
-    let (k, accept, w) = (row.len(), T::accepted(&plan.all), T::W512);
+fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -> bool {
+    let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
     assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK);
     super::prefetch_ahead(row);
     let tail = k - k % BLOCK;
@@ -212,11 +212,11 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
 }
 
 #[target_feature(enable = "avx512f")]
-pub fn screen<T: Prediction>(m: Matrix<'_, T>, plan: &ScreenPlan, out: &mut [u32]) {
-    if ShortRow::<T>::fits(plan.all.len()) {
-        let short = ShortRow::<T>::new(&plan.all);
-        screen_impl(m, plan, out, |row, _| short.rejected(row))
+pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
+    if ShortRow::<T>::fits(b.len()) {
+        let short = ShortRow::<T>::new(b);
+        screen_impl(m, b, plan, out, |row| short.rejected(row))
     } else {
-        screen_impl(m, plan, out, |row, plan| row_rejected(row, plan))
+        screen_impl(m, b, plan, out, |row| row_rejected(row, b, plan))
     }
 }
