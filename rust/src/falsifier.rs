@@ -18,6 +18,9 @@ const BLOCK_ROWS: usize = 1024;
 /// Predictions per slab between two `stop` checks: a few milliseconds of
 /// work, large enough that handing each slab to the pool costs little.
 const SLAB_ELEMENTS: usize = 1 << 22;
+/// Rows diagnosed to learn the screening order: enough to rank the sensors,
+/// few enough that the slower full visit costs nothing measurable.
+const LEARN_ROWS: usize = 16 * BLOCK_ROWS;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -39,7 +42,10 @@ pub struct Falsifier {
     tally: Tally,
     candidates: Vec<u64>,
     violations: Vec<u32>,
+    /// Per-row verdicts of the current slab, reused from slab to slab.
     scratch: Vec<u32>,
+    /// Candidates found by each block of the current slab.
+    block_counts: Vec<usize>,
 }
 
 impl Falsifier {
@@ -73,6 +79,7 @@ impl Falsifier {
             candidates: Vec::new(),
             violations: Vec::new(),
             scratch: Vec::new(),
+            block_counts: Vec::new(),
         })
     }
 
@@ -157,13 +164,18 @@ impl Falsifier {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
         let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
         let mut chunk_tally = Tally::zeros(n_m);
-        for first in (0..rows).step_by(slab_rows) {
-            let last = (first + slab_rows).min(rows);
+        let mut first = 0;
+        while first < rows {
+            // Until the screening order is known, a short slab is diagnosed to learn it.
+            let learning = self.mode == Mode::Screen && self.screen_plan.is_none();
+            let last = (first + if learning { LEARN_ROWS } else { slab_rows }).min(rows);
             let slab = chunk.slice_rows(first, last);
             if self.scratch.len() < last - first {
                 self.scratch.resize(last - first, 0);
             }
             let out = &mut self.scratch[..last - first];
+            self.block_counts.resize(out.len().div_ceil(BLOCK_ROWS), 0);
+            let counts = &mut self.block_counts[..];
             let base = self.n_instances + first as u64;
             let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
             // One hand-over to the pool per slab: waking it costs more than a
@@ -171,12 +183,12 @@ impl Falsifier {
             let tally = pool.install(|| {
                 let tally = match (self.mode, plan) {
                     (Mode::Screen, Some(plan)) => {
-                        screen_parallel(slab, bounds, plan, out);
+                        screen_parallel(slab, bounds, plan, out, counts);
                         None
                     }
-                    _ => Some(diagnose_parallel(slab, bounds, out)),
+                    _ => Some(diagnose_parallel(slab, bounds, out, counts)),
                 };
-                collect_candidates(out, base, candidates).map(|()| tally)
+                collect_candidates(out, counts, base, candidates).map(|()| tally)
             })?;
             match (self.mode, tally) {
                 (Mode::Diagnose, Some(t)) => {
@@ -192,6 +204,7 @@ impl Falsifier {
                 }
                 _ => {}
             }
+            first = last;
             if stop() {
                 return Err(EdmfError::Interrupted);
             }
@@ -200,21 +213,17 @@ impl Falsifier {
     }
 }
 
-/// Appends `base + i` for every `out[i] == 0`, in order, in parallel: count
-/// per block, prefix-sum the counts, then each block writes its own slice of
-/// the spare capacity (not zero-filled first: with every instance a
-/// candidate, a sequential fill costs as much as a tenth of the kernel).
-/// Runs in the caller's pool.
-fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>) -> Result<()> {
-    let counts: Vec<usize> = out
-        .par_chunks(BLOCK_ROWS)
-        .map(|o| o.iter().filter(|&&v| v == 0).count())
-        .collect();
+/// Appends `base + i` for every `out[i] == 0`, in order, in parallel: each
+/// block's count (taken by the kernel pass while the block was in L1) is
+/// prefix-summed, then each block writes its own slice of the spare capacity
+/// (not zero-filled first: with every instance a candidate, a sequential fill
+/// costs as much as a tenth of the kernel). Runs in the caller's pool.
+fn collect_candidates(out: &[u32], counts: &[usize], base: u64, candidates: &mut Vec<u64>) -> Result<()> {
     let found = counts.iter().sum::<usize>();
     reserve(candidates, found, "candidate indices")?;
     let mut rest = &mut candidates.spare_capacity_mut()[..found];
     let mut slices = Vec::with_capacity(counts.len());
-    for &c in &counts {
+    for &c in counts {
         let (head, tail) = rest.split_at_mut(c);
         slices.push(head);
         rest = tail;
@@ -224,6 +233,13 @@ fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>) -> Resu
         .enumerate()
         .for_each(|(k, (o, dst))| {
             let first = base + (k * BLOCK_ROWS) as u64;
+            if dst.len() == o.len() {
+                // Every row a candidate (the worst case): a plain, vectorised fill.
+                for (i, d) in dst.iter_mut().enumerate() {
+                    d.write(first + i as u64);
+                }
+                return;
+            }
             let found = o
                 .iter()
                 .enumerate()
@@ -234,13 +250,18 @@ fn collect_candidates(out: &[u32], base: u64, candidates: &mut Vec<u64>) -> Resu
                 d.write(c);
                 written += 1;
             }
-            // The same filter over the same block counted them.
+            // The kernel pass counted them over the same block.
             assert_eq!(written, dst.len(), "candidate count changed between passes");
         });
     // SAFETY: the `found` slots after the old length were all written above
-    // (each block asserts it filled its slice).
+    // (each block filled its slice: whole, or asserted).
     unsafe { candidates.set_len(candidates.len() + found) };
     Ok(())
+}
+
+/// Candidates (rows with no rejecting sensor) in one block of verdicts.
+fn candidates_in(out: &[u32]) -> usize {
+    out.iter().filter(|&&v| v == 0).count()
 }
 
 /// Room for `more` elements, or an error (an allocation failure would abort
@@ -250,28 +271,45 @@ fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
         .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
-/// Runs in the caller's pool.
-fn diagnose_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32]) -> Tally {
+/// Runs in the caller's pool; each block's candidate count into `counts`.
+fn diagnose_parallel<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    counts: &mut [usize],
+) -> Tally {
     let n_m = b.len();
     out.par_chunks_mut(BLOCK_ROWS)
+        .zip(counts.par_iter_mut())
         .enumerate()
         .fold(
             || Tally::zeros(n_m),
-            |mut t, (k, o)| {
+            |mut t, (k, (o, count))| {
                 let first = k * BLOCK_ROWS;
                 diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
+                *count = candidates_in(o);
                 t
             },
         )
         .reduce(|| Tally::zeros(n_m), Tally::merge)
 }
 
-/// Runs in the caller's pool.
-fn screen_parallel<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
-    out.par_chunks_mut(BLOCK_ROWS).enumerate().for_each(|(k, o)| {
-        let first = k * BLOCK_ROWS;
-        screen(m.slice_rows(first, first + o.len()), b, plan, o);
-    })
+/// Runs in the caller's pool; each block's candidate count into `counts`.
+fn screen_parallel<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    plan: &ScreenPlan,
+    out: &mut [u32],
+    counts: &mut [usize],
+) {
+    out.par_chunks_mut(BLOCK_ROWS)
+        .zip(counts.par_iter_mut())
+        .enumerate()
+        .for_each(|(k, (o, count))| {
+            let first = k * BLOCK_ROWS;
+            screen(m.slice_rows(first, first + o.len()), b, plan, o);
+            *count = candidates_in(o);
+        })
 }
 
 #[cfg(test)]
@@ -308,9 +346,13 @@ mod tests {
         let a = run(&data, n_m, n, 1, Mode::Diagnose);
         let b = run(&data, n_m, 777, 2, Mode::Diagnose);
         let c = run(&data, n_m, 1500, 2, Mode::Screen);
+        // One chunk: the learning slab, then screening slabs within the chunk.
+        let d = run(&data, n_m, n, 2, Mode::Screen);
+        assert!(n > LEARN_ROWS);
         assert_eq!(a.n_instances(), n as u64);
         assert_eq!(a.candidates(), b.candidates());
         assert_eq!(a.candidates(), c.candidates());
+        assert_eq!(a.candidates(), d.candidates());
         assert_eq!(a.tally(), b.tally());
         assert_eq!(a.violations(), b.violations());
         assert!(c.tally().is_none());
@@ -321,6 +363,28 @@ mod tests {
             .collect();
         assert!(!expected.is_empty() && expected.len() < n);
         assert_eq!(a.candidates(), &expected[..]);
+    }
+
+    #[test]
+    fn whole_blocks_of_candidates_and_partial_ones_are_collected() {
+        // Block 0 all candidates, block 1 all but row 1500, a short last block all
+        // candidates; then a second chunk with none.
+        let (n, n_m) = (2 * BLOCK_ROWS + 952, 2);
+        let mut data = vec![0.5; n * n_m];
+        data[1500 * n_m + 1] = 3.0;
+        for mode in [Mode::Diagnose, Mode::Screen] {
+            let f = run(&data, n_m, n, 2, mode);
+            let expected: Vec<u64> = (0..n as u64).filter(|&i| i != 1500).collect();
+            assert_eq!(f.candidates(), &expected[..]);
+        }
+        let mut f = run(&data, n_m, n, 1, Mode::Screen);
+        let none = vec![5.0; 100 * n_m];
+        f.update(Matrix::row_major(&none, 100, n_m).unwrap(), &pool(2), &mut || {
+            false
+        })
+        .unwrap();
+        assert_eq!(f.candidates().len(), n - 1);
+        assert_eq!(f.n_instances(), (n + 100) as u64);
     }
 
     #[test]

@@ -51,8 +51,14 @@ pub fn set_num_threads(n: i64) -> PyResult<()> {
             "n: expected a positive number of threads, got {n}"
         )));
     }
-    let pool = build(n as usize)?;
-    *POOL.lock().unwrap_or_else(|e| e.into_inner()) = Some(pool);
+    let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());
+    if guard
+        .as_ref()
+        .is_some_and(|p| p.current_num_threads() == n as usize)
+    {
+        return Ok(()); // keep the running threads (and their warm caches)
+    }
+    *guard = Some(build(n as usize)?);
     Ok(())
 }
 
