@@ -168,7 +168,13 @@ impl Falsifier {
         while first < rows {
             // Until the screening order is known, a short slab is diagnosed to learn it.
             let learning = self.mode == Mode::Screen && self.screen_plan.is_none();
-            let last = (first + if learning { LEARN_ROWS } else { slab_rows }).min(rows);
+            let last = (first
+                + if learning {
+                    LEARN_ROWS.min(slab_rows)
+                } else {
+                    slab_rows
+                })
+            .min(rows);
             let slab = chunk.slice_rows(first, last);
             if self.scratch.len() < last - first {
                 self.scratch.resize(last - first, 0);
@@ -385,6 +391,26 @@ mod tests {
         .unwrap();
         assert_eq!(f.candidates().len(), n - 1);
         assert_eq!(f.n_instances(), (n + 100) as u64);
+    }
+
+    #[test]
+    fn the_learning_slab_is_no_longer_than_a_slab() {
+        // 1024 sensors: a slab is 4096 rows, shorter than LEARN_ROWS; Ctrl-C
+        // must be polled as often while the screening order is learned.
+        let (rows, n_m) = (LEARN_ROWS, 1024);
+        let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
+        let data = vec![0f32; rows * n_m];
+        let mut polls = [0; 2];
+        for (k, mode) in [Mode::Diagnose, Mode::Screen].into_iter().enumerate() {
+            let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, false).unwrap();
+            let m = Matrix::row_major(&data, rows, n_m).unwrap();
+            f.update(m, &pool(2), &mut || {
+                polls[k] += 1;
+                false
+            })
+            .unwrap();
+        }
+        assert_eq!(polls, [rows * n_m / SLAB_ELEMENTS; 2]);
     }
 
     #[test]
