@@ -23,6 +23,11 @@ Y2 = np.array([0.0, 0.0])
         (42, TypeError, r"predictions: expected a 2-D array, a path"),
         ([np.zeros((3, 2)), np.zeros((3, 4))], ValueError, r"chunk 1 has 4 columns, expected 2 like the first"),
         ([np.zeros((3, 2)), np.zeros(3)], ValueError, r"chunk 1\).*2-D"),
+        # The user's shape is shown, not that of a slice checked in its place.
+        (np.zeros((5, 5)), ValueError, r"expected 2 columns .* got shape \(5, 5\)"),
+        (np.zeros((2, 2, 4)), ValueError, r"got 3-D shape \(2, 2, 4\)"),
+        ([[0.0, 1.0], [0.0]], TypeError, r"predictions: expected a 2-D array of numbers"),
+        (iter([np.zeros((1, 2)), [[0.0, 1.0], [0.0]]]), TypeError, r"predictions \(chunk 1\): expected a 2-D array"),
     ],
 )
 def test_bad_predictions(predictions, error, match):
@@ -178,3 +183,66 @@ def test_reversed_sample_arrays_are_read_correctly():
     t = edmf_rs.threshold_bounds(samples[::-1], phi=0.8)
     want = edmf_rs.threshold_bounds(np.ascontiguousarray(samples[::-1]), phi=0.8)
     np.testing.assert_array_equal(t.low, want.low)
+
+
+@pytest.mark.parametrize("name", ["diagnostics", "progress", "keep_violations"])
+@pytest.mark.parametrize("value", ["no", 0, None])
+def test_yes_no_options_take_only_booleans(name, value):
+    if name == "keep_violations" and value is None:
+        value = "yes"  # None means "the default" there
+    with pytest.raises(TypeError, match=f"{name}: expected True or False"):
+        edmf_rs.falsify(np.zeros((2, 2)), Y2, T2, **{name: value})
+    with pytest.raises(TypeError, match=f"{name}: expected True or False"):
+        edmf_rs.falsify_model(lambda p: np.zeros((len(p), 2)), np.zeros((2, 1)), Y2, T2, **{name: value})
+
+
+def test_numpy_booleans_are_booleans():
+    r = edmf_rs.falsify(np.zeros((2, 2)), Y2, T2, diagnostics=np.True_, progress=np.False_)
+    assert r.n_candidates == 2
+
+
+def test_checkpoint_every_is_checked_without_a_checkpoint():
+    with pytest.raises(ValueError, match="checkpoint_every"):
+        edmf_rs.falsify(np.zeros((2, 2)), Y2, T2, checkpoint_every=-1)
+
+
+@pytest.mark.parametrize(
+    "parameters, match",
+    [
+        (np.array([["a"], ["b"]]), r"parameters: expected real numbers"),
+        (np.zeros((2, 1), dtype=complex), r"parameters: expected real numbers"),
+        (np.array([[object()]], dtype=object), r"parameters: expected real numbers"),
+        (iter([np.zeros((1, 1)), np.zeros((1, 1), dtype=complex)]), r"parameters \(batch 1\): expected real"),
+    ],
+)
+def test_model_parameters_must_be_real_numbers(parameters, match):
+    with pytest.raises(TypeError, match=match):
+        edmf_rs.falsify_model(lambda p: np.zeros((len(p), 2)), parameters, Y2, T2, progress=False)
+
+
+def test_on_batch_must_be_callable_before_the_model_runs():
+    calls = []
+
+    def model(p):
+        calls.append(len(p))
+        return np.zeros((len(p), 2))
+
+    with pytest.raises(TypeError, match="on_batch: expected a callable"):
+        edmf_rs.falsify_model(model, np.zeros((3, 1)), Y2, T2, on_batch=5)
+    assert calls == []
+
+
+@pytest.mark.parametrize("checkpoint, error, match", [
+    ("", ValueError, "checkpoint: expected a folder path, got an empty string"),
+    (5, TypeError, "checkpoint: expected a folder path"),
+])
+def test_bad_checkpoint_folder(checkpoint, error, match):
+    with pytest.raises(error, match=match):
+        edmf_rs.falsify(np.zeros((2, 2)), Y2, T2, checkpoint=checkpoint)
+
+
+def test_a_path_given_as_bytes_is_a_file(tmp_path):
+    path = tmp_path / "p.npy"
+    np.save(path, np.array([[0.0, 0.0], [5.0, 0.0]]))
+    r = edmf_rs.falsify(bytes(path), Y2, T2, progress=False)
+    assert r.candidate_indices.tolist() == [0]

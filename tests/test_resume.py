@@ -254,6 +254,82 @@ def test_refuses_to_resume_with_other_inputs(tmp_path):
     _same(edmf_rs.falsify(chunks, y, t, checkpoint=folder), edmf_rs.falsify(predictions, y, t))
 
 
+def test_finishing_tidies_only_the_files_the_run_wrote(tmp_path):
+    predictions, y, t = _case()
+    folder = tmp_path / "run"
+    chunks = [predictions[i:i + CHUNK] for i in range(0, ROWS, CHUNK)]
+
+    def stop_after(k):
+        for i, c in enumerate(chunks):
+            if i == k:
+                raise KeyboardInterrupt
+            yield c
+
+    with pytest.raises(KeyboardInterrupt):
+        edmf_rs.falsify(stop_after(8), y, t, checkpoint=folder)
+    n_parts = len(_state(folder)["parts"])
+    ours = [f"part-{n_parts + 5:06d}.candidates.npy", ".part-000003.candidates.npy.77.ab12.tmp",
+            ".state.json.77.cd34.tmp"]
+    theirs = ["results.csv", ".draft.tmp", "part-000001.simulation.npy", "part-x.candidates.npy"]
+    for name in ours + theirs:
+        (folder / name).write_bytes(b"left over")
+    _same(edmf_rs.falsify(iter(chunks), y, t, checkpoint=folder), edmf_rs.falsify(predictions, y, t))
+    left = {p.name for p in folder.iterdir()}
+    assert not left & set(ours)
+    assert set(theirs) <= left
+
+
+def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
+    predictions, y, t = _case(100)
+    predictions = np.nan_to_num(predictions)
+    calls = []
+
+    def model(p):
+        calls.append(len(p))
+        return predictions[:len(p)]
+
+    (tmp_path / "a-file").write_text("x")
+    with pytest.raises(ValueError, match="checkpoint: cannot create folder"):
+        edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=tmp_path / "a-file" / "run")
+    # An existing folder without write access (root ignores modes: simulated).
+    folder = tmp_path / "run"
+    folder.mkdir()
+    from edmf_rs import folder_lock
+
+    def read_only(path, mode="r", *args, **kwargs):
+        if "r" not in mode:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(folder_lock, "open", read_only, raising=False)
+    with pytest.raises(ValueError, match="checkpoint: cannot write in folder .*Permission denied"):
+        edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=folder)
+    assert calls == []
+    # ... while a finished run there can still be read back.
+    monkeypatch.undo()
+    want = edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=folder)
+    monkeypatch.setattr(folder_lock, "open", read_only, raising=False)
+    _same(edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=folder), want)
+
+
+@pytest.mark.parametrize("edit", [
+    lambda s: s.pop("fingerprint"),
+    lambda s: s.update(n_done=-1),
+    lambda s: s.update(parts=None),
+    lambda s: s["parts"].append({"n_instances": "3"}),
+    lambda s: s["tally"]["per_sensor_falsified"].pop(),
+])
+def test_a_hand_edited_state_is_refused(tmp_path, edit):
+    predictions, y, t = _case(1000)
+    folder = tmp_path / "run"
+    edmf_rs.falsify(predictions, y, t, checkpoint=folder)
+    state = _state(folder)
+    edit(state)
+    (folder / "state.json").write_text(json.dumps(state))
+    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state"):
+        edmf_rs.falsify(predictions, y, t, checkpoint=folder)
+
+
 def test_damaged_state_is_refused(tmp_path):
     predictions, y, t = _case(100)
     folder = tmp_path / "run"
@@ -400,6 +476,9 @@ def test_full_disk_gives_clear_error_and_keeps_previous_state(tmp_path, monkeypa
     state = _state(folder)
     assert state["n_done"] == 6 * CHUNK and not state["complete"]
     assert f"state after instance {6 * CHUNK:,}" in str(info.value)
+    # The failed save's own parts do not stay behind holding the space.
+    assert sorted(p.name for p in folder.glob("part-*")) == [
+        f"part-{k:06d}.candidates.npy" for k in range(len(state["parts"]))]
     monkeypatch.setattr(checkpoint, writer, original)
     _same(edmf_rs.falsify(path, y, t, chunk_rows=CHUNK, checkpoint=folder, checkpoint_every=0),
           edmf_rs.falsify(path, y, t, chunk_rows=CHUNK))

@@ -184,6 +184,8 @@ def test_file_truncated_while_read_fails_cleanly(tmp_path, rows, chunk_rows):
     (_npy_bytes(np.zeros((2, 3, N_M))), ValueError, "expected a 2-D array"),
     (_npy_bytes(np.zeros((4, N_M), dtype=complex)), TypeError, "numeric .npy file"),
     (_npy_bytes(np.zeros((4, N_M + 1))), ValueError, "has 7 columns"),
+    # A header with a negative row count (np.load refuses it too): not an empty run.
+    (_npy_bytes(np.zeros((5, N_M))).replace(b"(5, 6)", b"(-5, 6)"), ValueError, r"header gives shape \(-5, 6\)"),
 ])
 def test_corrupt_files_are_refused_naming_them(tmp_path, content, error, message):
     _, y, t = _data()

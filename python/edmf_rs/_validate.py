@@ -46,3 +46,22 @@ def finite_vector(values, name: str, n: int | None = None) -> np.ndarray:
         raise ValueError(f"{name}: expected finite values, got {arr[bad[0]]} at sensor {bad[0]}")
     arr.flags.writeable = False
     return arr
+
+
+def flag(value, name: str) -> bool:
+    """A yes/no option: True or False (a NumPy bool too). Strings such as
+    "no" are refused rather than read as true."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
+def real_array(values, name: str) -> np.ndarray:
+    """A float64 array (a copy) of real numbers; complex, text or objects are refused."""
+    try:
+        arr = np.asarray(values)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name}: expected an array of numbers ({exc})") from None
+    if arr.dtype.kind not in "iufb":
+        raise TypeError(f"{name}: expected real numbers, got dtype {arr.dtype}")
+    return np.array(arr, dtype=np.float64, copy=True)

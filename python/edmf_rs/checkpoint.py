@@ -17,24 +17,17 @@ import numbers
 import signal
 import threading
 import time
-import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
-try:
-    import fcntl
-except ImportError:  # not POSIX: folders are not locked
-    fcntl = None
-
 from . import atomic
+from .folder_lock import FolderLock, folder_path
 from .result import FalsificationResult
 from .thresholds import Thresholds
 
 STATE = "state.json"
-#: Held (``flock``) by the run using the folder; the OS drops it if the run dies.
-LOCK = ".lock"
 FORMAT = "edmf_rs.checkpoint/1"
 #: Fingerprint entries that are content hashes (not worth printing).
 HASHED = ("measurements", "thresholds")
@@ -99,56 +92,26 @@ class Checkpoint:
 
     def __init__(self, folder, fp: dict, every: float, fields: tuple[str, ...] = (),
                  input_name: str = "predictions"):
-        self.folder = Path(folder)
+        self.folder = folder_path(folder)
         if self.folder.exists() and not self.folder.is_dir():
             raise ValueError(f"checkpoint: expected a folder, {self.folder} is a file")
         self.every, self.fields, self.input_name = float(every), fields, input_name
         self.fingerprint = fp
-        self._lock = self._acquire()
+        self._lock = FolderLock(self.folder)
         try:
             self._read_progress()
+            unwritable = self._lock.unwritable
+            if unwritable is not None and not self.complete:
+                # Refused now, not at the first save after all the work.
+                raise ValueError(f"checkpoint: cannot write in folder {self.folder} "
+                                 f"({unwritable.strerror or unwritable}); give a writable folder")
         except BaseException:
             self.close()
             raise
 
-    def _acquire(self):
-        """Locks the folder against a second run writing into it at once.
-
-        Where nothing can be written (a read-only copy of a finished run) or
-        the file system has no locks, the run goes on unlocked: the first has
-        nothing to guard, the second is warned about.
-        """
-        if fcntl is None:
-            return None
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            fh = open(self.folder / LOCK, "a")
-        except OSError:
-            try:
-                fh = open(self.folder / LOCK)  # flock works on a read-only file too
-            except OSError:
-                return None
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            fh.close()
-            raise ValueError(f"checkpoint: folder {self.folder} is in use by another run "
-                             "(wait for it to finish, or give another folder)") from None
-        except OSError as exc:
-            fh.close()
-            warnings.warn(f"checkpoint: cannot lock folder {self.folder} ({exc.strerror}); "
-                          "make sure no other run uses it meanwhile", stacklevel=4)
-            return None
-        return fh
-
     def close(self) -> None:
         """Releases the folder (idempotent)."""
-        if self._lock is not None:
-            # Unlock explicitly: a process the model forked shares the open
-            # file, and closing it here alone would leave the lock held.
-            fcntl.flock(self._lock, fcntl.LOCK_UN)
-            self._lock.close()
-            self._lock = None
+        self._lock.release()
 
     def _read_progress(self) -> None:
         state = self._read_state()
@@ -178,6 +141,7 @@ class Checkpoint:
             state = json.loads(path.read_text("utf-8"))
             if state.get("format") != FORMAT:
                 raise ValueError(f"unknown format {state.get('format')!r}")
+            _check_state(state)
             return state
         except (ValueError, AttributeError, UnicodeDecodeError) as exc:
             raise ValueError(
@@ -314,14 +278,18 @@ class Checkpoint:
         state = {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
                  "first_row": self.first_row, "last_row": last_row, "tally": tally, "extra": self.extra,
                  "parts": parts}
-        target = None
+        target, written = None, []
         try:
             for name, arr in files.items():
                 target = self.part_path(len(self.parts), name)
                 save_npy(target, arr)
+                written.append(target)
             target = self.folder / STATE
             save_state(target, json.dumps(state, indent=1))
         except OSError as exc:
+            for path in written:  # not listed in the state: only holding space the retry needs
+                with contextlib.suppress(OSError):
+                    path.unlink()
             raise CheckpointError(
                 exc.errno,
                 f"checkpoint: could not write {target.name} in {self.folder} ({exc.strerror or exc}). "
@@ -337,16 +305,37 @@ class Checkpoint:
             self._tidy()
 
     def _tidy(self) -> None:
-        """Removes parts and temporary files left by interrupted sessions."""
-        for path in self.folder.glob("part-*.npy"):
-            try:
-                stale = int(path.name[5:11]) >= len(self.parts)
-            except ValueError:
-                stale = False
-            if stale:
+        """Removes the parts and temporary files interrupted sessions left;
+        only names this class writes, so other files in the folder are kept."""
+        for name in ("candidates",) + self.fields:
+            for path in self.folder.glob(f"part-??????.{name}.npy"):
+                if path.name[5:11].isdigit() and int(path.name[5:11]) >= len(self.parts):
+                    path.unlink(missing_ok=True)
+        # atomic.atomic_path's temporary names: ".<target>.<pid>.<uuid>.tmp"
+        for pattern in (".part-??????.*.npy.*.tmp", f".{STATE}.*.tmp"):
+            for path in self.folder.glob(pattern):
                 path.unlink(missing_ok=True)
-        for path in self.folder.glob(".*.tmp"):
-            path.unlink(missing_ok=True)
+
+
+def _check_state(state: dict) -> None:
+    """Raises ValueError unless ``state`` has the shape ``_write`` gives it."""
+    def count(v) -> bool:
+        return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+    ok = (isinstance(state.get("fingerprint"), dict) and count(state.get("n_done"))
+          and isinstance(state.get("complete"), bool) and isinstance(state.get("extra", {}), dict)
+          and all(isinstance(state.get(k), (str, type(None))) for k in ("first_row", "last_row"))
+          and isinstance(state.get("parts"), list)
+          and all(isinstance(p, dict) and count(p.get("n_instances")) and count(p.get("n_candidates"))
+                  for p in state["parts"]))
+    tally = state.get("tally")
+    if ok and tally is not None:
+        n_sensors = state["fingerprint"].get("n_sensors")
+        ok = (isinstance(tally, dict) and count(tally.get("n_invalid"))
+              and all(isinstance(tally.get(k), list) and len(tally[k]) == n_sensors and all(map(count, tally[k]))
+                      for k in ("per_sensor_falsified", "falsified_only_by")))
+    if not ok:
+        raise ValueError("damaged: a field is missing or has the wrong type or length")
 
 
 def every_seconds(value) -> float:

@@ -16,12 +16,13 @@ from . import npy
 RowCheck = Callable[[int, np.ndarray], None]
 
 
-def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
-    """A 2-D float32/float64 array with positive strides, aligned, n_sensors wide.
-
-    Arrays already in that form are passed through without a copy.
-    """
-    arr = chunk if isinstance(chunk, np.ndarray) else np.asarray(chunk)
+def checked_array(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
+    """``chunk`` as an array whose dtype is numeric and whose shape is
+    (instances, n_sensors); nothing is converted or copied."""
+    try:
+        arr = chunk if isinstance(chunk, np.ndarray) else np.asarray(chunk)
+    except (TypeError, ValueError) as exc:  # e.g. ragged nested lists
+        raise TypeError(f"{name}: expected a 2-D array of numbers ({exc})") from None
     if arr.dtype.kind not in "iufb" or arr.dtype.hasobject:
         raise TypeError(f"{name}: expected a numeric array of predictions, got dtype {arr.dtype}")
     if arr.ndim != 2:
@@ -33,6 +34,15 @@ def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
             f"{name}: expected {n_sensors} columns (one per sensor, as in measurements), "
             f"got shape {arr.shape}"
         )
+    return arr
+
+
+def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
+    """A 2-D float32/float64 array with positive strides, aligned, n_sensors wide.
+
+    Arrays already in that form are passed through without a copy.
+    """
+    arr = checked_array(chunk, n_sensors, name)
     if arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative:
         arr = arr.astype(np.float64 if arr.dtype != np.float32 else np.float32)
     if any(s < 0 for s in arr.strides) or not arr.flags.aligned:
@@ -57,8 +67,7 @@ class ArraySource(Source):
     converted chunk by chunk, so memory does not grow with N."""
 
     def __init__(self, arr, n_sensors: int, chunk_rows: int | None):
-        arr = arr if isinstance(arr, np.ndarray) else np.asarray(arr)
-        as_chunk(arr[:0], n_sensors)  # dtype and shape checks, without converting anything
+        arr = checked_array(arr, n_sensors)  # nothing converted yet
         self.arr, self.n_sensors = arr, n_sensors
         self.n_instances = int(arr.shape[0])
         # A converted chunk is a new array (no base); a chunk read in place is a view of `arr`.
@@ -108,17 +117,23 @@ class IterableSource(Source):
     def _checked(self) -> Iterator[np.ndarray]:
         width = None
         for k, chunk in enumerate(self.iterable):
-            arr = chunk if isinstance(chunk, np.ndarray) else np.asarray(chunk)
+            name = f"predictions (chunk {k})"
+            try:
+                arr = chunk if isinstance(chunk, np.ndarray) else np.asarray(chunk)
+            except (TypeError, ValueError) as exc:  # e.g. ragged nested lists
+                raise TypeError(f"{name}: expected a 2-D array of numbers ({exc})") from None
             if width is None and arr.ndim == 2:
                 width = arr.shape[1]
             if arr.ndim == 2 and arr.shape[1] != width:
                 raise ValueError(
                     f"predictions: chunk {k} has {arr.shape[1]} columns, expected {width} like the first chunk"
                 )
-            yield as_chunk(arr, self.n_sensors, name=f"predictions (chunk {k})")
+            yield as_chunk(arr, self.n_sensors, name=name)
 
 
 def open_source(predictions, n_sensors: int, chunk_rows: int | None = None) -> Source:
+    if isinstance(predictions, bytes):  # a path as bytes, as os.listdir(b".") gives them
+        predictions = os.fsdecode(predictions)
     if isinstance(predictions, (str, os.PathLike)):
         return FileSource(predictions, n_sensors, chunk_rows)
     if _is_array_like(predictions):

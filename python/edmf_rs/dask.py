@@ -25,7 +25,7 @@ except ImportError as exc:  # pragma: no cover - exercised in a subprocess test
     ) from exc
 
 from . import _core
-from ._validate import finite_vector, positive_int
+from ._validate import finite_vector, flag, positive_int
 from .chunks import as_chunk
 from .falsify import _readonly, from_accumulator
 from .model import evaluate
@@ -52,13 +52,15 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         )
     if arr.dtype.kind not in "iufb":
         raise TypeError(f"predictions: expected a numeric array of predictions, got dtype {arr.dtype}")
+    diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    keep_violations = flag(keep_violations, "keep_violations")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
     if len(arr.chunks[1]) > 1:
         arr = arr.rechunk({0: "auto", 1: -1})
     task = dask.delayed(_falsify_block, pure=True)
     low, high = thresholds.low, thresholds.high
-    parts = [task(block, y, low, high, diagnostics, bool(keep_violations))
+    parts = [task(block, y, low, high, diagnostics, keep_violations)
              for block in arr.to_delayed().ravel()]
     rows = None if any(np.isnan(c) for c in arr.chunks[0]) else arr.chunks[0]
     return _merged(_compute(parts, client, progress, rows), y, thresholds)
@@ -80,12 +82,14 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         raise TypeError(f"model: expected a callable, got {type(model).__name__}")
     if nan not in ("raise", "falsify"):
         raise ValueError(f"nan: expected 'raise' or 'falsify', got {nan!r}")
+    diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    keep_violations = flag(keep_violations, "keep_violations")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
     y, thresholds = _checked(measurements, thresholds)
     batch_size = positive_int(batch_size, "batch_size")
     task = dask.delayed(_model_block, pure=True)
-    args = (model, y, thresholds.low, thresholds.high, diagnostics, bool(keep_violations), nan)
+    args = (model, y, thresholds.low, thresholds.high, diagnostics, keep_violations, nan)
 
     if isinstance(parameters, (np.ndarray, da.Array)):
         arr = parameters if isinstance(parameters, da.Array) else da.from_array(parameters)

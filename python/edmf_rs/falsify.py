@@ -7,7 +7,7 @@ import os
 import numpy as np
 
 from . import _core
-from ._validate import finite_vector, positive_int
+from ._validate import finite_vector, flag, positive_int
 from .checkpoint import Checkpoint, digest, every_seconds, fingerprint, save_on_error
 from .chunks import FileSource, open_source
 from .npy import CHUNK_BYTES
@@ -69,20 +69,22 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         )
     if chunk_rows is not None:
         chunk_rows = positive_int(chunk_rows, "chunk_rows")
+    diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    every = every_seconds(checkpoint_every)
     if keep_violations is None:
-        keep_violations = diagnostics and not isinstance(predictions, (str, os.PathLike, np.memmap))
+        keep_violations = diagnostics and not isinstance(predictions, (str, bytes, os.PathLike, np.memmap))
+    keep_violations = flag(keep_violations, "keep_violations")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
-    keep_violations = bool(keep_violations)
     if checkpoint is not None and chunk_rows is None:
         chunk_rows = max(1024, CHUNK_BYTES // (8 * y.shape[0]))  # so an array is checkpointed in steps too
     source = open_source(predictions, y.shape[0], chunk_rows)
     ckpt = None
     try:
         if checkpoint is not None:
-            fp = fingerprint("falsify", y, thresholds, diagnostics=bool(diagnostics),
+            fp = fingerprint("falsify", y, thresholds, diagnostics=diagnostics,
                              keep_violations=keep_violations, n_instances=source.n_instances)
-            ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every),
+            ckpt = Checkpoint(checkpoint, fp, every,
                               ("n_violated",) if keep_violations else ())
             if ckpt.complete:
                 if source.n_instances is not None:  # arrays and files: two rows read to confirm

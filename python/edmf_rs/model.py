@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from . import _core
-from ._validate import finite_vector, positive_int
+from ._validate import finite_vector, flag, positive_int, real_array
 from .checkpoint import Checkpoint, digest, every_seconds, fingerprint, save_on_error
 from .chunks import RowCheck, as_chunk, skip_rows
 from .falsify import _readonly, from_accumulator
@@ -31,7 +31,7 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
     total count when known. When resuming, ``check`` sees rows 0 and start-1."""
     if isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and parameters
                                               and np.ndim(parameters[0]) < 2):
-        arr = np.asarray(parameters, dtype=np.float64)
+        arr = real_array(parameters, "parameters")
         if arr.ndim == 1:
             arr = arr[:, None]
         if arr.ndim != 2:
@@ -48,12 +48,9 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
     def checked() -> Iterator[np.ndarray]:
         width = None
         for k, batch in enumerate(parameters):
-            try:
-                # A copy: batch k is still being falsified while the source
-                # produces batch k+1, perhaps into the same buffer.
-                arr = np.array(batch, dtype=np.float64, copy=True)
-            except (TypeError, ValueError) as exc:
-                raise TypeError(f"parameters: batch {k} is not an array of numbers ({exc})") from None
+            # A copy: batch k is still being falsified while the source
+            # produces batch k+1, perhaps into the same buffer.
+            arr = real_array(batch, f"parameters (batch {k})")
             arr = arr[:, None] if arr.ndim == 1 else arr
             if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
                 raise ValueError(
@@ -141,19 +138,24 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
     if nan not in ("raise", "falsify"):
         raise ValueError(f"nan: expected 'raise' or 'falsify', got {nan!r}")
+    if on_batch is not None and not callable(on_batch):
+        raise TypeError(f"on_batch: expected a callable or None, got {type(on_batch).__name__}")
+    diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    keep_violations = flag(keep_violations, "keep_violations")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
     batch_size = positive_int(batch_size, "batch_size")
+    every = every_seconds(checkpoint_every)
     ckpt = None
     try:
         if checkpoint is not None:
             n_total = _known_length(parameters)
-            fp = fingerprint("falsify_model", y, thresholds, diagnostics=bool(diagnostics),
-                             keep_violations=bool(keep_violations), nan=nan, model=_model_name(model),
+            fp = fingerprint("falsify_model", y, thresholds, diagnostics=diagnostics,
+                             keep_violations=keep_violations, nan=nan, model=_model_name(model),
                              n_instances=n_total)
             fields = ("n_violated",) if keep_violations else ()
-            ckpt = Checkpoint(checkpoint, fp, every_seconds(checkpoint_every), fields + ("parameters", "predictions"),
+            ckpt = Checkpoint(checkpoint, fp, every, fields + ("parameters", "predictions"),
                               input_name="parameters")
             if ckpt.complete:
                 if n_total is not None:  # an array: two rows read to confirm; an iterable is not drained again

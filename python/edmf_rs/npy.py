@@ -46,9 +46,9 @@ class NpyFile:
             self.shape, self.fortran, self.dtype = self._header()
             if self.dtype.kind not in "iufb" or self.dtype.hasobject or self.dtype.fields:
                 raise TypeError(f"{name}: expected a numeric .npy file, {path!s} holds dtype {self.dtype}")
-            if len(self.shape) != 2:
+            if len(self.shape) != 2 or min(self.shape) < 0:
                 raise ValueError(
-                    f"{name}: expected a 2-D array (instances x sensors) in {path!s}, got shape {self.shape}"
+                    f"{name}: expected a 2-D array (instances x sensors) in {path!s}, its header gives shape {self.shape}"
                 )
             self.offset = self.fp.tell()
             expected = self.shape[0] * self.shape[1] * self.dtype.itemsize

@@ -1,0 +1,76 @@
+"""One run at a time per checkpoint folder: an ``flock`` held on ``.lock``
+while a run uses the folder (the OS drops it if the run dies)."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # not POSIX: folders are not locked
+    fcntl = None
+
+LOCK = ".lock"
+
+
+def folder_path(value) -> Path:
+    """The checkpoint folder as a Path; the empty string (which would mean the
+    current folder, and its files) is refused."""
+    if isinstance(value, bytes):
+        value = os.fsdecode(value)
+    if not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"checkpoint: expected a folder path (str or os.PathLike), got {type(value).__name__}")
+    if os.fspath(value) == "":
+        raise ValueError("checkpoint: expected a folder path, got an empty string")
+    return Path(value)
+
+
+class FolderLock:
+    """Creates ``folder`` and locks it against a second run writing into it.
+
+    Where nothing can be written (a read-only copy of a finished run, which
+    can still be read back; ``unwritable`` then says why) or the file system
+    has no locks, the run goes on unlocked: the first has nothing to guard,
+    the second is warned about.
+    """
+
+    def __init__(self, folder: Path):
+        self.unwritable: OSError | None = None
+        self._fh = None
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            fh = open(folder / LOCK, "a")
+        except OSError as exc:
+            self.unwritable = exc
+            if not folder.is_dir():
+                raise ValueError(f"checkpoint: cannot create folder {folder} "
+                                 f"({exc.strerror or exc}); give a writable folder") from None
+            try:
+                fh = open(folder / LOCK)  # flock works on a read-only file too
+            except OSError:
+                return
+        if fcntl is None:
+            fh.close()
+            return
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.close()
+            raise ValueError(f"checkpoint: folder {folder} is in use by another run "
+                             "(wait for it to finish, or give another folder)") from None
+        except OSError as exc:
+            fh.close()
+            warnings.warn(f"checkpoint: cannot lock folder {folder} ({exc.strerror}); "
+                          "make sure no other run uses it meanwhile", stacklevel=4)
+            return
+        self._fh = fh
+
+    def release(self) -> None:
+        """Idempotent. Unlocks explicitly: a process the model forked shares
+        the open file, and closing it here alone would leave the lock held."""
+        if self._fh is not None:
+            fcntl.flock(self._fh, fcntl.LOCK_UN)
+            self._fh.close()
+            self._fh = None
