@@ -26,7 +26,7 @@ def assert_same(result, expected):
 @st.composite
 def problems(draw):
     n = draw(st.integers(0, 300))
-    n_m = draw(st.integers(1, 7))
+    n_m = draw(st.one_of(st.integers(1, 7), st.integers(8, 80)))
     dtype = draw(st.sampled_from([np.float64, np.float32]))
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
@@ -34,6 +34,8 @@ def problems(draw):
     # Coarse values make exact ties frequent; bounds are taken from actual residuals.
     grid = draw(st.sampled_from([None, 0.25]))
     base = rng.normal(0.0, 1.0, (n, n_m)) + y
+    if draw(st.booleans()):  # sparse: about one large residual per row, at any sensor
+        base = np.where(rng.random((n, n_m)) < 1.0 / n_m, base, y + rng.normal(0.0, 0.05, (n, n_m)))
     if grid:
         base = np.round(base / grid) * grid
     predictions = base.astype(dtype)
@@ -147,6 +149,21 @@ def test_zero_instances_give_an_empty_result():
     assert result.model_class_falsified
     assert result.candidate_mask.shape == (0,)
     assert "no model instance was given" in result.summary()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("n_m", [17, 33, 34, 40, 64, 65, 80])
+def test_a_single_rejecting_sensor_is_named_at_every_position(n_m, dtype):
+    # Row j is rejected by sensor j alone; the last row by none.
+    p = np.zeros((n_m + 1, n_m), dtype=dtype)
+    p[np.arange(n_m), np.arange(n_m)] = 5.0
+    t = edmf_rs.Thresholds(-np.ones(n_m), np.ones(n_m))
+    for diagnostics in (True, False):
+        r = edmf_rs.falsify(p, np.zeros(n_m), t, diagnostics=diagnostics, progress=False)
+        assert r.candidate_indices.tolist() == [n_m]
+    r = edmf_rs.falsify(p, np.zeros(n_m), t, progress=False)
+    np.testing.assert_array_equal(r.falsified_only_by, np.ones(n_m))
+    np.testing.assert_array_equal(r.per_sensor_falsified, np.ones(n_m))
 
 
 def test_leave_one_sensor_out_counts():

@@ -86,7 +86,19 @@ impl ScreenPlan {
     pub fn blocks(&self) -> &[usize] {
         &self.blocks
     }
+
+    /// Whether the vector kernels stop at the first rejecting block. Rows of
+    /// up to [`WHOLE_ROW_BLOCKS`] blocks are tested whole, without a branch:
+    /// their cache lines are fetched whole anyway, and when which block
+    /// rejects varies from row to row, each exit mispredicts (measured on
+    /// 2M x 50 rows, 95 % falsified: 8 % slower from memory, 25 % from cache).
+    pub fn exits_early(&self) -> bool {
+        self.blocks.len() > WHOLE_ROW_BLOCKS
+    }
 }
+
+/// Longest row, in blocks, that screening tests whole (64 sensors).
+pub const WHOLE_ROW_BLOCKS: usize = 4;
 
 #[cfg(test)]
 mod tests {

@@ -9,7 +9,9 @@ use super::*;
 #[test]
 fn vector_kernels_match_portable_ones() {
     let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
-    for k in 1..=50 {
+    // Past 64 sensors screening stops at the first rejecting block (below,
+    // whole rows are tested): both paths, with rows of partial blocks.
+    for k in (1..=50usize).chain([63, 64, 65, 80, 97, 130]) {
         // Bounds differ from sensor to sensor, so a lane reading another
         // sensor's bounds shows up.
         let y: Vec<f64> = (0..k).map(|j| 0.25 * (j % 3) as f64).collect();
@@ -17,8 +19,15 @@ fn vector_kernels_match_portable_ones() {
         let hi: Vec<f64> = (0..k).map(|j| 0.5 + 0.25 * (j % 4) as f64).collect();
         let b = SensorBounds::new(&y, &lo, &hi).unwrap();
         let rows = 71; // not a whole number of tiles
+                       // About two special values per row (drawn at random), so that some
+                       // rows are candidates and others not, whatever their width.
+        let mut state = 0x2545_F491_4F6C_DD1Du64 ^ k as u64;
         let data: Vec<f64> = (0..rows * k)
-            .map(|i| y[i % k] + specials[(i * 7 + i / 5) % specials.len()])
+            .map(|i| {
+                let u = crate::testing::uniform(&mut state);
+                let special = specials[(u * 1e6) as usize % specials.len()];
+                y[i % k] + if u < 2.0 / k as f64 { special } else { 0.0 }
+            })
             .collect();
         let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
         let m = Matrix::row_major(&data, rows, k).unwrap();
@@ -41,6 +50,11 @@ fn vector_kernels_match_portable_ones() {
             screen_with(Isa::Portable, m, &b, &plan, &mut c);
             assert_eq!(a, c, "{isa:?} screen, {k} sensors");
         }
+        let rejected = c.iter().filter(|&&r| r > 0).count();
+        assert!(
+            0 < rejected && rejected < rows,
+            "{rejected} of {rows} rejected, {k} sensors"
+        );
         let flags: Vec<u32> = (0..rows).map(|i| (c[i] > 0) as u32).collect();
         diagnose_with(Isa::Portable, m, &b, &mut c, &mut Tally::zeros(k));
         assert_eq!(flags, c.iter().map(|&n| (n > 0) as u32).collect::<Vec<_>>());

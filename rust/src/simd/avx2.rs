@@ -45,7 +45,13 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
             let p = T::load4(row.as_ptr().add(j));
             let rejects = outside4(p, accept, j);
             let bits = _mm256_movemask_pd(rejects);
-            first = first.min(j + bits.trailing_zeros() as usize);
+            // Past the row when this vector has none (not j + 32: a later
+            // vector's rejection would then be attributed to the wrong sensor).
+            first = first.min(if bits != 0 {
+                j + bits.trailing_zeros() as usize
+            } else {
+                usize::MAX
+            });
             let out = _mm256_castpd_si256(rejects);
             // An all-ones lane is -1: subtracting it counts one rejection.
             let c = counts.as_mut_ptr().add(j) as *mut __m256i;
@@ -69,14 +75,15 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
 }
 
 /// True if any sensor rejects the row, visiting the plan's blocks in order
-/// with one branch per block.
+/// with one branch per block (short rows: all blocks, no branch).
 #[inline]
 #[target_feature(enable = "avx2")]
 fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -> bool {
     let (k, accept) = (row.len(), &b.accept64);
     assert!(accept[0].len() >= k);
     super::prefetch_ahead(row);
-    plan.blocks.iter().any(|&s| {
+    // Whether the block starting at sensor `s` rejects the row.
+    let block = |s: usize| {
         let end = (s + BLOCK).min(k);
         let whole = s + (end - s) / 4 * 4;
         // SAFETY: AVX2 is enabled; every index below `whole` is within `row`
@@ -88,8 +95,13 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
             }
             _mm256_movemask_pd(any) != 0
         };
-        vector || (whole..end).any(|j| outside1(row[j].to_f64(), accept, j))
-    })
+        vector | (whole..end).fold(false, |any, j| any | outside1(row[j].to_f64(), accept, j))
+    };
+    if plan.exits_early() {
+        plan.blocks().iter().any(|&s| block(s))
+    } else {
+        plan.blocks().iter().fold(false, |any, &s| any | block(s)) // short rows: no branch
+    }
 }
 
 #[target_feature(enable = "avx2")]

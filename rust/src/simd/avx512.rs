@@ -63,7 +63,13 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
         let (out, nans) = unsafe { group(row, accept, j, lanes) };
         unsafe { add_counts::<T>(counts, j, lanes, out) };
         n += out.count_ones();
-        first = first.min(j + out.trailing_zeros() as usize);
+        // Past the row when this vector has none (not j + 32: a later
+        // vector's rejection would then be attributed to the wrong sensor).
+        first = first.min(if out != 0 {
+            j + out.trailing_zeros() as usize
+        } else {
+            usize::MAX
+        });
         nan |= nans;
     };
     for j in (0..whole).step_by(w) {
@@ -76,7 +82,7 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
 }
 
 /// True if any sensor rejects the row, visiting the plan's blocks in order
-/// with one branch per block.
+/// with one branch per block (short rows: all blocks, no branch).
 #[inline]
 #[target_feature(enable = "avx512f")]
 fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -> bool {
@@ -84,7 +90,8 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
     assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK);
     super::prefetch_ahead(row);
     let tail = k - k % BLOCK;
-    plan.blocks.iter().any(|&s| {
+    // Rejecting lanes of the block starting at sensor `s`.
+    let block = |s: usize| {
         let mut rejects = 0;
         // A fixed number of vectors per block; in the last, partial block the
         // lanes past the row's end are masked off (possibly all of a vector).
@@ -99,8 +106,13 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
             // acceptance vectors are padded to whole blocks.
             rejects |= unsafe { group(row, accept, j, lanes) }.0;
         }
-        rejects != 0
-    })
+        rejects
+    };
+    if plan.exits_early() {
+        plan.blocks().iter().any(|&s| block(s) != 0)
+    } else {
+        plan.blocks().iter().fold(0, |any, &s| any | block(s)) != 0
+    }
 }
 
 /// Acceptance intervals of a row of at most two vectors, held in registers
