@@ -47,11 +47,8 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
             let bits = _mm256_movemask_pd(rejects);
             // Past the row when this vector has none (not j + 32: a later
             // vector's rejection would then be attributed to the wrong sensor).
-            first = first.min(if bits != 0 {
-                j + bits.trailing_zeros() as usize
-            } else {
-                usize::MAX
-            });
+            let none = ((bits == 0) as usize).wrapping_neg(); // all ones if none rejects
+            first = first.min((j + bits.trailing_zeros() as usize) | none);
             let out = _mm256_castpd_si256(rejects);
             // An all-ones lane is -1: subtracting it counts one rejection.
             let c = counts.as_mut_ptr().add(j) as *mut __m256i;

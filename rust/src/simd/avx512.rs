@@ -65,11 +65,8 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
         n += out.count_ones();
         // Past the row when this vector has none (not j + 32: a later
         // vector's rejection would then be attributed to the wrong sensor).
-        first = first.min(if out != 0 {
-            j + out.trailing_zeros() as usize
-        } else {
-            usize::MAX
-        });
+        let none = ((out == 0) as usize).wrapping_neg(); // all ones if none rejects
+        first = first.min((j + out.trailing_zeros() as usize) | none);
         nan |= nans;
     };
     for j in (0..whole).step_by(w) {
