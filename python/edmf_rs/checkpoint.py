@@ -188,6 +188,24 @@ class Checkpoint:
             if close is not None:
                 close()
 
+    def confirm_first_row(self, blocks) -> None:
+        """For an input that is not drained again (an iterable): its first
+        instance, from the first non-empty block drawn, must be the saved run's."""
+        try:
+            for block in blocks:
+                if len(block):
+                    self.verify_row(0, block[0])
+                    return
+            if self.n_done:
+                raise ValueError(
+                    f"checkpoint: {self.folder} holds a finished run over {self.n_done} instances, but the "
+                    f"{self.input_name} are empty; pass the same input, or another folder to start over"
+                )
+        finally:
+            close = getattr(blocks, "close", None)
+            if close is not None:
+                close()
+
     def part_path(self, k: int, name: str) -> Path:
         return self.folder / f"part-{k:06d}.{name}.npy"
 

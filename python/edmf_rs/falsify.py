@@ -57,8 +57,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         chunk (or returns the finished result); other inputs are refused
         (checked by their measurements, thresholds, options, length and
         first and last rows done; a finished run over an iterable returns its
-        saved result without reading the iterable again). A folder serves one
-        run at a time: a second run on it meanwhile is refused.
+        saved result after checking only the iterable's first chunk). A folder
+        serves one run at a time: a second run on it meanwhile is refused.
     """
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
@@ -89,7 +89,9 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
             if ckpt.complete:
                 if source.n_instances is not None:  # arrays and files: two rows read to confirm
                     ckpt.confirm_finished(source.chunks(ckpt.n_done, ckpt.verify_row))
-                return ckpt.result(thresholds, y)  # an iterable is not drained again
+                else:  # an iterable is not drained again: its first chunk is checked
+                    ckpt.confirm_first_row(source.chunks())
+                return ckpt.result(thresholds, y)
         start = ckpt.n_done if ckpt else 0
 
         acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,

@@ -158,8 +158,10 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
             ckpt = Checkpoint(checkpoint, fp, every, fields + ("parameters", "predictions"),
                               input_name="parameters")
             if ckpt.complete:
-                if n_total is not None:  # an array: two rows read to confirm; an iterable is not drained again
+                if n_total is not None:  # an array: two rows read to confirm
                     ckpt.confirm_finished(parameter_batches(parameters, batch_size, ckpt.n_done, ckpt.verify_row)[0])
+                else:  # an iterable is not drained again: its first batch is checked
+                    ckpt.confirm_first_row(parameter_batches(parameters, batch_size)[0])
                 return ckpt.result(thresholds, y)
         start = ckpt.n_done if ckpt else 0
         batches, total = parameter_batches(parameters, batch_size, start, ckpt.verify_row if ckpt else None)
