@@ -246,3 +246,17 @@ def test_a_path_given_as_bytes_is_a_file(tmp_path):
     np.save(path, np.array([[0.0, 0.0], [5.0, 0.0]]))
     r = edmf_rs.falsify(bytes(path), Y2, T2, progress=False)
     assert r.candidate_indices.tolist() == [0]
+
+
+def test_array_parameters_are_read_in_place(tmp_path):
+    # A memory-mapped parameter file is not copied into memory first.
+    theta = np.lib.format.open_memmap(tmp_path / "theta.npy", mode="w+", dtype=np.float64, shape=(5000, 1))
+    theta[:] = 0.0
+    shared = []
+
+    def model(batch):
+        shared.append(np.shares_memory(batch, theta))
+        return np.zeros((len(batch), 2))
+
+    edmf_rs.falsify_model(model, theta, Y2, T2, batch_size=1000, progress=False)
+    assert shared == [True] * 5

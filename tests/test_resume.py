@@ -290,20 +290,34 @@ def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
     folder.mkdir()
     from edmf_rs import folder_lock
 
-    def read_only(path, mode="r", *args, **kwargs):
-        if "r" not in mode:
-            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
-        return open(path, mode, *args, **kwargs)
+    def no_write(*args, **kwargs):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES))
 
-    monkeypatch.setattr(folder_lock, "open", read_only, raising=False)
+    monkeypatch.setattr(folder_lock.tempfile, "TemporaryFile", no_write)
     with pytest.raises(ValueError, match="checkpoint: cannot write in folder .*Permission denied"):
         edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=folder)
     assert calls == []
     # ... while a finished run there can still be read back.
     monkeypatch.undo()
     want = edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=folder)
-    monkeypatch.setattr(folder_lock, "open", read_only, raising=False)
+    monkeypatch.setattr(folder_lock.tempfile, "TemporaryFile", no_write)
     _same(edmf_rs.falsify_model(model, np.zeros((100, 1)), y, t, checkpoint=folder), want)
+
+
+def test_a_lock_file_this_user_cannot_write_does_not_stop_a_run(tmp_path, monkeypatch):
+    # A shared folder where another user's run left .lock read-only for us.
+    predictions, y, t = _case(1000)
+    from edmf_rs import folder_lock
+
+    def lock_read_only(path, mode="r", *args, **kwargs):
+        if str(path).endswith(folder_lock.LOCK) and "r" not in mode:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(folder_lock, "open", lock_read_only, raising=False)
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / folder_lock.LOCK).touch()
+    _same(edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run"), edmf_rs.falsify(predictions, y, t))
 
 
 @pytest.mark.parametrize("edit", [
@@ -532,6 +546,9 @@ def test_a_finished_checkpoint_over_an_iterable_checks_its_first_chunk(tmp_path)
         edmf_rs.falsify(iter([predictions[::-1]]), y, t, checkpoint=tmp_path / "run", progress=False)
     with pytest.raises(ValueError, match="predictions are empty"):
         edmf_rs.falsify(iter([]), y, t, checkpoint=tmp_path / "run", progress=False)
+    edmf_rs.falsify(iter([]), y, t, checkpoint=tmp_path / "empty", progress=False)  # finished over 0
+    with pytest.raises(ValueError, match="finished run over 0 instances, but the predictions have some"):
+        edmf_rs.falsify(iter(chunks), y, t, checkpoint=tmp_path / "empty", progress=False)
     theta = _theta()
     batches = [theta[i:i + 700] for i in range(0, len(theta), 700)]
     edmf_rs.falsify_model(_model, iter(batches), y, t, checkpoint=tmp_path / "model", progress=False)

@@ -9,10 +9,10 @@ import textwrap
 import edmf_rs
 
 
-def run_python(code: str, env: dict | None = None, **kw) -> subprocess.CompletedProcess:
+def run_python(code: str, env: dict | None = None, timeout: float = 120, **kw) -> subprocess.CompletedProcess:
     full_env = {**os.environ, **(env or {})}
     return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=full_env,
-                          capture_output=True, text=True, timeout=120, **kw)
+                          capture_output=True, text=True, timeout=timeout, **kw)
 
 
 def test_set_num_threads_round_trips():
@@ -20,6 +20,28 @@ def test_set_num_threads_round_trips():
     assert edmf_rs.get_num_threads() == 1
     edmf_rs.set_num_threads(2)
     assert edmf_rs.get_num_threads() == 2
+
+
+def test_a_forked_child_gets_a_pool_of_its_own():
+    # A child inherits the parent's pool but not its threads: it must build its
+    # own, whether it asks for the same size or not at all (no hang).
+    out = run_python("""
+        import os, signal, numpy as np, edmf_rs
+        t = edmf_rs.Thresholds([-1.0], [1.0])
+        edmf_rs.set_num_threads(2)
+        edmf_rs.falsify(np.zeros((10, 1)), [0.0], t)  # the parent's pool is running
+        for same_size in (True, False):
+            pid = os.fork()
+            if pid == 0:
+                signal.alarm(30)  # a hung child dies instead of outliving the test
+                if same_size:
+                    edmf_rs.set_num_threads(2)
+                r = edmf_rs.falsify(np.zeros((100_000, 1)), [0.0], t, progress=False)
+                os._exit(0 if r.n_candidates == 100_000 else 3)
+            _, status = os.waitpid(pid, 0)
+            print(os.waitstatus_to_exitcode(status))
+    """, timeout=60)
+    assert out.stdout.split() == ["0", "0"], out.stderr
 
 
 def test_environment_variable_sets_the_pool():

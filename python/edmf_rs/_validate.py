@@ -56,12 +56,13 @@ def flag(value, name: str) -> bool:
     return bool(value)
 
 
-def real_array(values, name: str) -> np.ndarray:
-    """A float64 array (a copy) of real numbers; complex, text or objects are refused."""
+def real_array(values, name: str, copy: bool) -> np.ndarray:
+    """A float64 array of real numbers (a copy if ``copy``, else converted
+    only when it is not float64 already); complex, text or objects are refused."""
     try:
         arr = np.asarray(values)
     except (TypeError, ValueError) as exc:
         raise TypeError(f"{name}: expected an array of numbers ({exc})") from None
     if arr.dtype.kind not in "iufb":
         raise TypeError(f"{name}: expected real numbers, got dtype {arr.dtype}")
-    return np.array(arr, dtype=np.float64, copy=True)
+    return np.array(arr, dtype=np.float64, copy=True) if copy else np.asarray(arr, dtype=np.float64)

@@ -194,6 +194,11 @@ class Checkpoint:
         try:
             for block in blocks:
                 if len(block):
+                    if self.n_done == 0:
+                        raise ValueError(
+                            f"checkpoint: {self.folder} holds a finished run over 0 instances, but the "
+                            f"{self.input_name} have some; pass the same input, or another folder to start over"
+                        )
                     self.verify_row(0, block[0])
                     return
             if self.n_done:

@@ -4,6 +4,7 @@ while a run uses the folder (the OS drops it if the run dies)."""
 from __future__ import annotations
 
 import os
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -41,18 +42,28 @@ class FolderLock:
         self._fh = None
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            fh = open(folder / LOCK, "a")
         except OSError as exc:
-            self.unwritable = exc
             if not folder.is_dir():
                 raise ValueError(f"checkpoint: cannot create folder {folder} "
                                  f"({exc.strerror or exc}); give a writable folder") from None
+        try:  # the folder itself, not the .lock an earlier run (maybe another user's) left
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError as exc:
+            self.unwritable = exc
+        fh = None
+        for mode in ("a", "r"):  # flock works on a file opened read-only too
             try:
-                fh = open(folder / LOCK)  # flock works on a read-only file too
+                fh = open(folder / LOCK, mode)
+                break
             except OSError:
-                return
-        if fcntl is None:
-            fh.close()
+                continue
+        if fh is None or fcntl is None:
+            if fh is not None:
+                fh.close()
+            elif self.unwritable is None:
+                warnings.warn(f"checkpoint: cannot open {folder / LOCK} to lock the folder; "
+                              "make sure no other run uses it meanwhile", stacklevel=4)
             return
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)

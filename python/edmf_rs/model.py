@@ -31,7 +31,7 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
     total count when known. When resuming, ``check`` sees rows 0 and start-1."""
     if isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and parameters
                                               and np.ndim(parameters[0]) < 2):
-        arr = real_array(parameters, "parameters")
+        arr = real_array(parameters, "parameters", copy=False)  # a memmap stays on disk
         if arr.ndim == 1:
             arr = arr[:, None]
         if arr.ndim != 2:
@@ -50,7 +50,7 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
         for k, batch in enumerate(parameters):
             # A copy: batch k is still being falsified while the source
             # produces batch k+1, perhaps into the same buffer.
-            arr = real_array(batch, f"parameters (batch {k})")
+            arr = real_array(batch, f"parameters (batch {k})", copy=True)
             arr = arr[:, None] if arr.ndim == 1 else arr
             if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
                 raise ValueError(

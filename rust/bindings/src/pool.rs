@@ -7,7 +7,19 @@ use pyo3::prelude::*;
 use rayon::{ThreadPool, ThreadPoolBuilder};
 use std::sync::{Arc, Mutex};
 
-static POOL: Mutex<Option<Arc<ThreadPool>>> = Mutex::new(None);
+/// The pool and the process that started its threads: a child forked from
+/// that process inherits the pool but none of its threads, and would wait on
+/// them forever.
+static POOL: Mutex<Option<(u32, Arc<ThreadPool>)>> = Mutex::new(None);
+
+/// The pool if this process started it. An inherited one is leaked, not
+/// dropped: its threads never existed here to be told to stop.
+fn own(slot: &mut Option<(u32, Arc<ThreadPool>)>) -> Option<&Arc<ThreadPool>> {
+    if slot.as_ref().is_some_and(|(pid, _)| *pid != std::process::id()) {
+        std::mem::forget(slot.take());
+    }
+    slot.as_ref().map(|(_, pool)| pool)
+}
 
 const ENV: &str = "EDMF_RS_NUM_THREADS";
 
@@ -35,11 +47,11 @@ fn default_threads() -> PyResult<usize> {
 /// The pool to run on, created on first use.
 pub fn current() -> PyResult<Arc<ThreadPool>> {
     let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(pool) = guard.as_ref() {
+    if let Some(pool) = own(&mut guard) {
         return Ok(Arc::clone(pool));
     }
     let pool = build(default_threads()?)?;
-    *guard = Some(Arc::clone(&pool));
+    *guard = Some((std::process::id(), Arc::clone(&pool)));
     Ok(pool)
 }
 
@@ -52,13 +64,10 @@ pub fn set_num_threads(n: i64) -> PyResult<()> {
         )));
     }
     let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());
-    if guard
-        .as_ref()
-        .is_some_and(|p| p.current_num_threads() == n as usize)
-    {
+    if own(&mut guard).is_some_and(|p| p.current_num_threads() == n as usize) {
         return Ok(()); // keep the running threads (and their warm caches)
     }
-    *guard = Some(build(n as usize)?);
+    *guard = Some((std::process::id(), build(n as usize)?));
     Ok(())
 }
 
