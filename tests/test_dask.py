@@ -130,3 +130,33 @@ def test_model_batches_from_a_refilled_buffer_and_1d_parameters(client):
                               progress=False)
     want = edmf_rs.falsify_model(lambda b: _model(np.hstack([b, b])), one, y, t, batch_size=700, progress=False)
     _same(got, want)
+
+
+def test_a_list_of_parameter_rows_is_an_array_on_dask_too(client):
+    _, y, t = _case()
+    rows = [[0.0, 0.5], [2.0, 0.0], [0.25, 0.25], [-3.0, 1.0]]
+    want = edmf_rs.falsify_model(_model, np.array(rows), y, t, progress=False)
+    _same(edmf_rs.falsify_model(_model, rows, y, t, progress=False), want)
+    _same(edask.falsify_model(_model, rows, y, t, client=client, batch_size=3, progress=False), want)
+    assert want.n_instances == 4 and want.candidate_parameters.shape[1] == 2
+
+
+def test_empty_batches_and_empty_1d_parameters_keep_shapes_and_dtypes(client):
+    _, y, t = _case()
+
+    def model32(theta):
+        return _model(theta).astype(np.float32)
+
+    theta = np.random.default_rng(5).normal(0.0, 0.5, (50, 2))
+    batches = [theta[:20], theta[:0], theta[20:]]
+    want = edmf_rs.falsify_model(model32, theta, y, t, progress=False)
+    got = edask.falsify_model(model32, iter(batches), y, t, client=client, progress=False)
+    _same(got, want)
+    assert want.n_candidates and got.candidate_predictions.dtype == want.candidate_predictions.dtype == np.float32
+    # A 1-D parameter array is (N, 1), with no rows too; results of row splits concatenate.
+    one = lambda p: np.repeat(p, N_M, axis=1)  # noqa: E731
+    empty = edmf_rs.falsify_model(one, np.arange(0.0), y, t, progress=False)
+    assert empty.candidate_parameters.shape == (0, 1)
+    assert edask.falsify_model(one, np.arange(0.0), y, t, client=client, progress=False).candidate_parameters.shape == (0, 1)
+    full = edmf_rs.falsify_model(one, np.zeros(5), y, t, progress=False)
+    assert edmf_rs.concatenate([empty, full]).candidate_parameters.shape == (5, 1)

@@ -25,10 +25,10 @@ except ImportError as exc:  # pragma: no cover - exercised in a subprocess test
     ) from exc
 
 from . import _core
-from ._validate import finite_vector, flag, positive_int
+from ._validate import finite_vector, flag, positive_int, real_array
 from .chunks import as_chunk
 from .falsify import _readonly, from_accumulator
-from .model import evaluate
+from .model import evaluate, is_parameter_array
 from .progress import bar
 from .result import FalsificationResult, concatenate
 from .thresholds import Thresholds
@@ -91,8 +91,9 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     task = dask.delayed(_model_block, pure=True)
     args = (model, y, thresholds.low, thresholds.high, diagnostics, keep_violations, nan)
 
-    if isinstance(parameters, (np.ndarray, da.Array)):
-        arr = parameters if isinstance(parameters, da.Array) else da.from_array(parameters)
+    if isinstance(parameters, da.Array) or is_parameter_array(parameters):
+        arr = parameters if isinstance(parameters, da.Array) else da.from_array(
+            real_array(parameters, "parameters", copy=False))
         arr = arr[:, None] if arr.ndim == 1 else arr
         if arr.ndim != 2:
             raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
@@ -111,7 +112,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     with bar(None, progress) as progress_bar:
         for k, batch in enumerate(parameters):
             # A copy: batches wait in the window, and a generator may refill one buffer.
-            arr = np.array(batch, dtype=np.float64, copy=True)
+            arr = real_array(batch, f"parameters (batch {k})", copy=True)
             arr = arr[:, None] if arr.ndim == 1 else arr
             if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
                 raise ValueError(f"parameters: batch {k} has shape {arr.shape}, expected (n, {width or 'p'})")

@@ -29,8 +29,7 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
                       check: RowCheck | None = None) -> tuple[Iterator[np.ndarray], int | None]:
     """Batches of parameter sets (float64 rows) from row ``start`` on, and the
     total count when known. When resuming, ``check`` sees rows 0 and start-1."""
-    if isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and parameters
-                                              and np.ndim(parameters[0]) < 2):
+    if is_parameter_array(parameters):
         arr = real_array(parameters, "parameters", copy=False)  # a memmap stays on disk
         if arr.ndim == 1:
             arr = arr[:, None]
@@ -171,8 +170,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
         tail: list = [None]  # (index, parameter row) of the last instance falsified
         n_params = ckpt.extra.get("n_parameters") if ckpt else None
-        if n_params is None and isinstance(parameters, np.ndarray) and parameters.ndim == 2:
-            n_params = parameters.shape[1]  # known even when there are no rows
+        if n_params is None and isinstance(parameters, np.ndarray) and parameters.ndim in (1, 2):
+            n_params = parameters.shape[1] if parameters.ndim == 2 else 1  # known even when there are no rows
 
         def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
             # Runs on the worker thread, which signals never interrupt: the
@@ -239,11 +238,15 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
             ckpt.close()  # frees the folder for the next run, even after an error
 
 
+def is_parameter_array(parameters) -> bool:
+    """An (N, p) array, or a list of parameter rows (a list of 2-D blocks is
+    an iterable of batches)."""
+    return isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and bool(parameters)
+                                                  and np.ndim(parameters[0]) < 2)
+
+
 def _known_length(parameters) -> int | None:
-    if isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and parameters
-                                              and np.ndim(parameters[0]) < 2):
-        return int(np.shape(parameters)[0])
-    return None
+    return int(np.shape(parameters)[0]) if is_parameter_array(parameters) else None
 
 
 def _model_name(model) -> str:

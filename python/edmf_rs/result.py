@@ -139,7 +139,8 @@ def concatenate(parts: list[FalsificationResult]) -> FalsificationResult:
             return None
         if shift:
             values = [v + off for v, off in zip(values, offsets)]
-        return np.concatenate(values)
+        # Empty parts (e.g. an empty batch, whose dtype nobody chose) do not decide the dtype.
+        return np.concatenate([v for v in values if len(v)] or values)
 
     return FalsificationResult(
         thresholds=first.thresholds,
