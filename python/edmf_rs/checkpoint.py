@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import atomic
+from . import atomic, chunks
 from .folder_lock import FolderLock, folder_path
 from .result import FalsificationResult
 from .thresholds import Thresholds
@@ -184,9 +184,7 @@ class Checkpoint:
                         f"{self.input_name} have more; pass the same input, or another folder to start over"
                     )
         finally:
-            close = getattr(remaining, "close", None)
-            if close is not None:
-                close()
+            chunks.close(remaining)
 
     def confirm_first_row(self, blocks) -> None:
         """For an input that is not drained again (an iterable): its first
@@ -207,9 +205,7 @@ class Checkpoint:
                     f"{self.input_name} are empty; pass the same input, or another folder to start over"
                 )
         finally:
-            close = getattr(blocks, "close", None)
-            if close is not None:
-                close()
+            chunks.close(blocks)
 
     def part_path(self, k: int, name: str) -> Path:
         return self.folder / f"part-{k:06d}.{name}.npy"

@@ -178,6 +178,14 @@ def skip_rows(blocks: Iterator[np.ndarray], start: int, check: RowCheck | None,
         )
 
 
+def close(blocks) -> None:
+    """Closes a generator of blocks now (a file's reader thread stops with
+    it), rather than at garbage collection; other iterables are left as they are."""
+    stop = getattr(blocks, "close", None)
+    if stop is not None:
+        stop()
+
+
 def _is_array_like(obj) -> bool:
     if isinstance(obj, np.ndarray) or hasattr(obj, "__array__"):
         return True

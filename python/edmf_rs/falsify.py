@@ -9,7 +9,7 @@ import numpy as np
 from . import _core
 from ._validate import finite_vector, flag, positive_int
 from .checkpoint import Checkpoint, digest, every_seconds, fingerprint, save_on_error
-from .chunks import FileSource, open_source
+from .chunks import FileSource, close, open_source
 from .npy import CHUNK_BYTES
 from .progress import bar
 from .result import FalsificationResult
@@ -117,9 +117,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
                 save_on_error(ckpt, acc, tail, exc)
                 raise
             finally:
-                close = getattr(chunks, "close", None)
-                if close is not None:
-                    close()  # stops a file's reader thread now, not at garbage collection
+                close(chunks)
         if ckpt is None:
             return from_accumulator(acc, y, thresholds)
         ckpt.flush(acc, tail, final=True)
