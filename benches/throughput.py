@@ -4,15 +4,22 @@ One run prints the machine and one table: for each N, n_m and case (worst:
 every instance is a candidate, so no early exit; typical: over 90 % of the
 instances are falsified), the rate of
 
-- the memory-read probe ``np.sum`` over the same array (the floor: reading),
-- the NumPy rule ``np.all((P - y >= lo) & (P - y <= hi), axis=1)``, one-shot
-  and in chunks,
+- the memory-read probe ``np.sum`` over the same array,
+- the read floor on every core: ``np.max`` over one slice per thread, at once
+  (no method that reads every value can beat it),
+- the NumPy reference ``edmf_rs.reference.falsify`` (the plain NumPy oracle,
+  the same outputs as ``diagnostics=True``), one-shot and in chunks,
+- the leanest NumPy rule, candidates only:
+  ``np.all((P - y >= lo) & (P - y <= hi), axis=1)``, one-shot and in chunks,
 - a per-instance Python loop as EDMF scripts often do it (on a subset),
 - ``edmf_rs.falsify`` with 1 and 2 threads, with and without diagnostics,
 
-with ratios to the probe. Arrays that do not fit the memory budget are
+with ratios to the probe, to the NumPy reference and to the lean rule
+(one-shot in memory, chunked for files). Arrays that do not fit the memory budget are
 streamed from a .npy file in a temporary folder (written in chunks; the
-probe then reads the file in chunks with ``readinto``). A last table streams
+probe then reads the file in chunks with ``readinto``); with --refeed-gb,
+cases whose file would exceed --max-file-gb stream one in-memory block
+again and again instead (src "iter"). A last table streams
 an N x 16 float32 file (N = 10^8 by default) and measures the peak RSS of
 the edmf_rs run in a subprocess.
 
@@ -29,182 +36,64 @@ page cache with posix_fadvise before each run).
 from __future__ import annotations
 
 import argparse
-import math
 import os
-import platform
 import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import edmf_rs
 import numpy as np
-from edmf_rs import Thresholds
-
-CHUNK_BYTES = 16 * 2**20  # NumPy chunked baselines read/compute this much at a time
-
-
-# -- machine -------------------------------------------------------------------
-
-def machine() -> str:
-    model = "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return (f"{model}; {cores} cores usable ({os.cpu_count()} online); RAM {ram_bytes() / 2**30:.1f} GiB; "
-            f"{platform.system()} {platform.release()}; Python {platform.python_version()}, "
-            f"NumPy {np.__version__}, edmf_rs {edmf_rs.__version__}")
-
-
-def ram_bytes() -> int:
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemTotal:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-
-
-# -- data ------------------------------------------------------------------------
-
-def problem(n_m: int, case: str, seed: int = 0):
-    """Measurements, thresholds, and a generator of prediction rows."""
-    y = np.linspace(-1.0, 1.0, n_m)
-    t = Thresholds(np.full(n_m, -1.0), np.full(n_m, 1.0))
-    # typical: iid N(0, s) residuals with P(candidate) = 5 %: per sensor P(|r| <= 1) = 0.05**(1/n_m)
-    p = 0.05 ** (1.0 / n_m)
-    from scipy.special import erfinv
-
-    sigma = 1.0 / (math.sqrt(2.0) * erfinv(p))
-
-    def rows(first: int, count: int, dtype) -> np.ndarray:
-        rng = np.random.default_rng([seed, first])
-        if case == "worst":  # every residual inside the bounds: all candidates, every sensor visited
-            r = rng.random((count, n_m), dtype=np.float32 if dtype == np.float32 else np.float64)
-            r = r.astype(dtype, copy=False) * 1.98 - 0.99
-        else:
-            r = rng.standard_normal((count, n_m), dtype=np.float32 if dtype == np.float32 else np.float64)
-            r = r.astype(dtype, copy=False) * sigma
-        r += y
-        return r.astype(dtype, copy=False)  # (NumPy scalars would promote float32 to float64)
-
-    return y, t, rows
-
-
-def in_memory(n: int, n_m: int, case: str, dtype) -> tuple:
-    y, t, rows = problem(n_m, case)
-    step = max(1, CHUNK_BYTES // (n_m * np.dtype(dtype).itemsize))
-    out = np.empty((n, n_m), dtype=dtype)
-    for first in range(0, n, step):
-        out[first:first + step] = rows(first, min(step, n - first), dtype)
-    return out, y, t
-
-
-def to_file(path: Path, n: int, n_m: int, case: str, dtype) -> tuple:
-    """Writes an (n, n_m) .npy file chunk by chunk (memory: one chunk)."""
-    y, t, rows = problem(n_m, case)
-    step = max(1, CHUNK_BYTES // (n_m * np.dtype(dtype).itemsize))
-    with open(path, "wb") as fh:
-        np.lib.format.write_array_header_2_0(
-            fh, {"descr": np.lib.format.dtype_to_descr(np.dtype(dtype)), "fortran_order": False, "shape": (n, n_m)})
-        for first in range(0, n, step):
-            fh.write(rows(first, min(step, n - first), dtype).tobytes())
-    return y, t
-
-
-# -- the methods -------------------------------------------------------------------
-
-def numpy_rule(p, y, t):
-    r = p - y
-    return np.all((r >= t.low) & (r <= t.high), axis=1)
-
-
-def numpy_chunked(p, y, t):
-    step = max(1, CHUNK_BYTES // (p.shape[1] * p.itemsize))
-    return [np.flatnonzero(numpy_rule(p[i:i + step], y, t)) + i for i in range(0, p.shape[0], step)]
-
-
-def python_loop(p, y, t):
-    """One instance at a time, as EDMF scripts ported from MATLAB do it."""
-    candidates = []
-    for i in range(p.shape[0]):
-        residual = p[i] - y
-        if np.all((residual >= t.low) & (residual <= t.high)):
-            candidates.append(i)
-    return candidates
-
-
-def file_chunks(path: Path):
-    """Reads a C-ordered .npy file in chunks with readinto into one buffer."""
-    with open(path, "rb", buffering=0) as fh:
-        version = np.lib.format.read_magic(fh)
-        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                       else np.lib.format.read_array_header_2_0)
-        shape, _, dtype = read_header(fh)
-        step = max(1, CHUNK_BYTES // (shape[1] * dtype.itemsize))
-        buf = np.empty((step, shape[1]), dtype=dtype)
-        for first in range(0, shape[0], step):
-            block = buf[:min(step, shape[0] - first)]
-            view, done = memoryview(block).cast("B"), 0
-            while done < view.nbytes:
-                done += fh.readinto(view[done:])
-            yield first, block
-
-
-def file_read(path):
-    for _ in file_chunks(path):
-        pass
-
-
-def file_numpy_rule(path, y, t):
-    return [np.flatnonzero(numpy_rule(block, y, t)) + first for first, block in file_chunks(path)]
-
-
-def edmf(source, y, t, threads, diagnostics):
-    edmf_rs.set_num_threads(threads)
-    return edmf_rs.falsify(source, y, t, diagnostics=diagnostics, keep_violations=False, progress=False)
-
-
-def best(fn, repeat: int, setup=None) -> float:
-    times = []
-    for _ in range(repeat):
-        if setup is not None:
-            setup()
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-        if times[-1] > 20.0:  # long enough that more runs add little
-            break
-    return min(times)
-
+from throughput_methods import (
+    best,
+    edmf,
+    file_numpy_reference,
+    file_numpy_rule,
+    file_read,
+    in_memory,
+    machine,
+    numpy_chunked,
+    numpy_reference,
+    numpy_reference_chunked,
+    numpy_rule,
+    python_loop,
+    ram_bytes,
+    read_floor,
+    to_file,
+)
 
 # -- table -----------------------------------------------------------------------
 
-HEADER = (f"{'N':>11} {'n_m':>4} {'case':>7} {'src':>4}  {'method':<34} {'time s':>8} {'inst/s':>10} "
-          f"{'x probe':>8} {'x numpy':>8}")
+HEADER = (f"{'N':>11} {'n_m':>4} {'case':>7} {'src':>4}  {'method':<38} {'time s':>8} {'inst/s':>10} "
+          f"{'x probe':>8} {'x numpy':>8} {'x rule':>7}")
 
 
-def row(n, n_m, case, src, method, seconds, n_timed, probe_rate, numpy_rate=0.0):
-    """One table line; ratios against the read probe and the NumPy rule (one-shot in
-    memory, chunked for files), all measured in this run."""
+def row(n, n_m, case, src, method, seconds, n_timed, probe_rate, numpy_rate=0.0, rule_rate=0.0):
+    """One table line; ratios against the read probe, the NumPy reference and the
+    lean NumPy rule (one-shot in memory, chunked for files), all measured in this run."""
     rate = n_timed / seconds if seconds else float("nan")
-    ratio = rate / probe_rate if probe_rate else float("nan")
-    vs_numpy = rate / numpy_rate if numpy_rate else float("nan")
-    line = (f"{n:>11,} {n_m:>4} {case:>7} {src:>4}  {method:<34} {seconds:>8.3f} {rate:>10.3g} "
-            f"{ratio:>8.2f} {vs_numpy:>8.1f}")
+
+    def ratio(base):
+        return rate / base if base else float("nan")
+
+    line = (f"{n:>11,} {n_m:>4} {case:>7} {src:>4}  {method:<38} {seconds:>8.3f} {rate:>10.3g} "
+            f"{ratio(probe_rate):>8.2f} {ratio(numpy_rate):>8.1f} {ratio(rule_rate):>7.1f}")
     print(line, flush=True)
     return rate
 
 
+def one_shot(n, n_m, case, name, method, temporaries, probe, args, numpy=0.0) -> float:
+    """Times a NumPy method on the whole array, if its temporaries (bytes) fit the budget."""
+    if temporaries > args.mem_budget:
+        skipped(n, n_m, case, "mem", f"{name}, one-shot", "temporaries exceed the memory budget")
+        return 0.0
+    return row(n, n_m, case, "mem", f"{name}, one-shot", best(method, args.repeat), n, probe, numpy)
+
+
 def skipped(n, n_m, case, src, method, why):
-    print(f"{n:>11,} {n_m:>4} {case:>7} {src:>4}  {method:<34} {'-':>8} {'-':>10} {'-':>8}  ({why})", flush=True)
+    print(f"{n:>11,} {n_m:>4} {case:>7} {src:>4}  {method:<38} {'-':>8} {'-':>10} {'-':>8}  ({why})", flush=True)
 
 
 def bench_case(n, n_m, case, args, tmp: Path):
@@ -213,40 +102,84 @@ def bench_case(n, n_m, case, args, tmp: Path):
     if nbytes <= args.mem_budget:
         p, y, t = in_memory(n, n_m, case, dtype)
         probe = row(n, n_m, case, "mem", "probe: np.sum", best(lambda: np.sum(p), args.repeat), n, 0)
-        numpy = 0.0
-        if 3.2 * nbytes <= args.mem_budget:
-            numpy = row(n, n_m, case, "mem", "numpy rule, one-shot", best(lambda: numpy_rule(p, y, t), args.repeat),
-                        n, probe)
-        else:
-            skipped(n, n_m, case, "mem", "numpy rule, one-shot", "temporaries exceed the memory budget")
-        chunked = row(n, n_m, case, "mem", "numpy rule, chunked", best(lambda: numpy_chunked(p, y, t), args.repeat),
-                      n, probe, numpy)
+        k = max(args.threads)
+        with ThreadPoolExecutor(k) as pool:
+            floor = row(n, n_m, case, "mem", f"read floor: np.max on {k} threads",
+                        best(lambda: read_floor(p, pool, k), args.repeat), n, probe)
+        # One-shot temporaries: about 4.5 arrays' worth for the reference, 3.2 for the rule.
+        numpy = one_shot(n, n_m, case, "numpy reference", lambda: numpy_reference(p, y, t), 4.5 * nbytes,
+                         probe, args)
+        chunked = row(n, n_m, case, "mem", "numpy reference, chunked",
+                      best(lambda: numpy_reference_chunked(p, y, t), args.repeat), n, probe, numpy)
         numpy = numpy or chunked
+        rule = one_shot(n, n_m, case, "numpy rule (candidates only)", lambda: numpy_rule(p, y, t), 3.2 * nbytes,
+                        probe, args, numpy)
+        chunked = row(n, n_m, case, "mem", "numpy rule (candidates only), chunked",
+                      best(lambda: numpy_chunked(p, y, t), args.repeat), n, probe, numpy, rule)
+        rule = rule or chunked
+        print(f"{'':>30}(the read floor is {floor / numpy:.1f}x the NumPy reference and {floor / rule:.1f}x the rule: "
+              "the most any method that reads every value reaches here)", flush=True)
         sub = p[:min(n, args.loop_n)]
         row(n, n_m, case, "mem", f"python loop ({len(sub):,} inst.)", best(lambda: python_loop(sub, y, t), 1),
-            len(sub), probe, numpy)
+            len(sub), probe, numpy, rule)
         runs = [(th, d) for d in (True, False) for th in args.threads]
         for th, d in runs:
             row(n, n_m, case, "mem", f"edmf_rs {th} thr, diagnostics={d}",
-                best(lambda th=th, d=d: edmf(p, y, t, th, d), args.repeat), n, probe, numpy)
+                best(lambda th=th, d=d: edmf(p, y, t, th, d), args.repeat), n, probe, numpy, rule)
         del p
         return
     if nbytes > args.max_file:
-        skipped(n, n_m, case, "file", "all", f"{nbytes / 2**30:.0f} GiB file > --max-file-gb")
+        if args.refeed_gb:
+            bench_refed(n, n_m, case, args)
+        else:
+            skipped(n, n_m, case, "file", "all", f"{nbytes / 2**30:.0f} GiB file > --max-file-gb")
         return
     path = tmp / f"bench-{n}-{n_m}-{case}.npy"
     try:
         y, t = to_file(path, n, n_m, case, dtype)
         probe = row(n, n_m, case, "file", "probe: readinto chunks", best(lambda: file_read(path), args.repeat), n, 0)
-        skipped(n, n_m, case, "file", "numpy rule, one-shot", "does not fit the memory budget")
-        numpy = row(n, n_m, case, "file", "numpy rule, chunked (readinto)",
-                    best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe)
+        skipped(n, n_m, case, "file", "numpy one-shot", "does not fit the memory budget")
+        numpy = row(n, n_m, case, "file", "numpy reference, chunked (readinto)",
+                    best(lambda: file_numpy_reference(path, y, t), args.repeat), n, probe)
+        rule = row(n, n_m, case, "file", "numpy rule, chunked (readinto)",
+                   best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe, numpy)
         for d in (True, False):
             for th in args.threads:
                 row(n, n_m, case, "file", f"edmf_rs {th} thr, diagnostics={d}",
-                    best(lambda th=th, d=d: edmf(path, y, t, th, d), args.repeat), n, probe, numpy)
+                    best(lambda th=th, d=d: edmf(path, y, t, th, d), args.repeat), n, probe, numpy, rule)
     finally:
         path.unlink(missing_ok=True)
+
+
+def bench_refed(n, n_m, case, args):
+    """N instances too many for the disk: one in-memory block (larger than the
+    caches) fed again and again as a stream of chunks, so every method reads
+    N x n_m values from memory; NumPy works through each block in chunks."""
+    block_rows = max(1, int(args.refeed_gb * 2**30) // (n_m * 8))
+    block, y, t = in_memory(min(n, block_rows), n_m, case, np.float64)
+
+    def blocks():
+        for first in range(0, n, len(block)):
+            yield block[:min(len(block), n - first)]
+
+    src = "iter"
+    probe = row(n, n_m, case, src, "probe: np.sum", best(lambda: [np.sum(b) for b in blocks()], args.repeat), n, 0)
+    k = max(args.threads)
+    with ThreadPoolExecutor(k) as pool:
+        row(n, n_m, case, src, f"read floor: np.max on {k} threads",
+            best(lambda: [read_floor(b, pool, k) for b in blocks()], args.repeat), n, probe)
+    numpy = row(n, n_m, case, src, "numpy reference, chunked",
+                best(lambda: edmf_rs.concatenate([numpy_reference_chunked(b, y, t) for b in blocks()]),
+                     args.repeat), n, probe)
+    rule = row(n, n_m, case, src, "numpy rule (candidates only), chunked",
+               best(lambda: [numpy_chunked(b, y, t) for b in blocks()], args.repeat), n, probe, numpy)
+    sub = block[:min(n, args.loop_n)]
+    row(n, n_m, case, src, f"python loop ({len(sub):,} inst.)", best(lambda: python_loop(sub, y, t), 1),
+        len(sub), probe, numpy, rule)
+    for d in (True, False):
+        for th in args.threads:
+            row(n, n_m, case, src, f"edmf_rs {th} thr, diagnostics={d}",
+                best(lambda th=th, d=d: edmf(blocks(), y, t, th, d), args.repeat), n, probe, numpy, rule)
 
 
 RSS_CHILD = """
@@ -294,12 +227,14 @@ def bench_streaming(args, tmp: Path):
         y, t = to_file(path, n, n_m, "typical", np.float32)
         print(f"  (file written in {time.perf_counter() - start:.1f} s)", flush=True)
         probe = row(n, n_m, "typical", "file", "numpy readinto chunks", best(lambda: file_read(path), args.repeat), n, 0)
-        numpy = row(n, n_m, "typical", "file", "numpy rule, chunked (readinto)",
-                    best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe)
+        numpy = row(n, n_m, "typical", "file", "numpy reference, chunked (readinto)",
+                    best(lambda: file_numpy_reference(path, y, t), args.repeat), n, probe)
+        rule = row(n, n_m, "typical", "file", "numpy rule, chunked (readinto)",
+                   best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe, numpy)
         for d in (True, False):
             for th in args.threads:
                 row(n, n_m, "typical", "file", f"edmf_rs {th} thr, diagnostics={d}",
-                    best(lambda th=th, d=d: edmf(str(path), y, t, th, d), args.repeat), n, probe, numpy)
+                    best(lambda th=th, d=d: edmf(str(path), y, t, th, d), args.repeat), n, probe, numpy, rule)
         # The kernel alone on the same data, in memory: the ceiling for streaming.
         m = min(n, 20_000_000)
         with open(path, "rb") as fh:
@@ -310,7 +245,7 @@ def bench_streaming(args, tmp: Path):
         for d in (True, False):
             row(m, n_m, "typical", "mem", f"edmf_rs {th} thr, diagnostics={d}",
                 best(lambda d=d: edmf(head, y, t, th, d), args.repeat), m, probe)
-        del head
+        head = None  # frees the 1.3 GB before the cold runs
         if args.cold:
             def cold():
                 evict(path)
@@ -341,7 +276,10 @@ def main(argv=None) -> int:
     ap.add_argument("--loop-n", type=int, default=20_000, help="instances timed in the Python loop")
     ap.add_argument("--mem-budget-gb", type=float, default=None,
                     help="largest in-memory array (default: min(RAM/4, 6) GiB); larger N use a file")
-    ap.add_argument("--max-file-gb", type=float, default=16.0, help="skip file cases larger than this")
+    ap.add_argument("--max-file-gb", type=float, default=16.0, help="no file larger than this")
+    ap.add_argument("--refeed-gb", type=float, default=0.0,
+                    help="cases beyond --max-file-gb: stream N rows by feeding one block of this size "
+                         "again and again from memory (src 'iter'); 0 skips them")
     ap.add_argument("--streaming-n", type=int, default=10**8, help="rows of the N x 16 float32 streaming case")
     ap.add_argument("--no-streaming", action="store_true", help="skip the streaming case")
     ap.add_argument("--streaming-only", action="store_true", help="run only the streaming case")
