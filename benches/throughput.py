@@ -92,6 +92,15 @@ def one_shot(n, n_m, case, name, method, temporaries, probe, args, numpy=0.0) ->
     return row(n, n_m, case, "mem", f"{name}, one-shot", best(method, args.repeat), n, probe, numpy)
 
 
+def edmf_rows(n, n_m, case, src, source, y, t, args, rates, threads=None, setup=None, suffix=""):
+    """Times ``edmf_rs.falsify`` with and without diagnostics on each thread count;
+    ``source()`` gives the predictions afresh for every call (a generator is used up)."""
+    for d in (True, False):
+        for th in threads or args.threads:
+            row(n, n_m, case, src, f"edmf_rs {th} thr, diagnostics={d}{suffix}",
+                best(lambda th=th, d=d: edmf(source(), y, t, th, d), args.repeat, setup), n, *rates)
+
+
 def skipped(n, n_m, case, src, method, why):
     print(f"{n:>11,} {n_m:>4} {case:>7} {src:>4}  {method:<38} {'-':>8} {'-':>10} {'-':>8}  ({why})", flush=True)
 
@@ -122,10 +131,7 @@ def bench_case(n, n_m, case, args, tmp: Path):
         sub = p[:min(n, args.loop_n)]
         row(n, n_m, case, "mem", f"python loop ({len(sub):,} inst.)", best(lambda: python_loop(sub, y, t), 1),
             len(sub), probe, numpy, rule)
-        runs = [(th, d) for d in (True, False) for th in args.threads]
-        for th, d in runs:
-            row(n, n_m, case, "mem", f"edmf_rs {th} thr, diagnostics={d}",
-                best(lambda th=th, d=d: edmf(p, y, t, th, d), args.repeat), n, probe, numpy, rule)
+        edmf_rows(n, n_m, case, "mem", lambda: p, y, t, args, (probe, numpy, rule))
         del p
         return
     if nbytes > args.max_file:
@@ -143,10 +149,7 @@ def bench_case(n, n_m, case, args, tmp: Path):
                     best(lambda: file_numpy_reference(path, y, t), args.repeat), n, probe)
         rule = row(n, n_m, case, "file", "numpy rule, chunked (readinto)",
                    best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe, numpy)
-        for d in (True, False):
-            for th in args.threads:
-                row(n, n_m, case, "file", f"edmf_rs {th} thr, diagnostics={d}",
-                    best(lambda th=th, d=d: edmf(path, y, t, th, d), args.repeat), n, probe, numpy, rule)
+        edmf_rows(n, n_m, case, "file", lambda: path, y, t, args, (probe, numpy, rule))
     finally:
         path.unlink(missing_ok=True)
 
@@ -176,10 +179,7 @@ def bench_refed(n, n_m, case, args):
     sub = block[:min(n, args.loop_n)]
     row(n, n_m, case, src, f"python loop ({len(sub):,} inst.)", best(lambda: python_loop(sub, y, t), 1),
         len(sub), probe, numpy, rule)
-    for d in (True, False):
-        for th in args.threads:
-            row(n, n_m, case, src, f"edmf_rs {th} thr, diagnostics={d}",
-                best(lambda th=th, d=d: edmf(blocks(), y, t, th, d), args.repeat), n, probe, numpy, rule)
+    edmf_rows(n, n_m, case, src, blocks, y, t, args, (probe, numpy, rule))
 
 
 RSS_CHILD = """
@@ -231,20 +231,14 @@ def bench_streaming(args, tmp: Path):
                     best(lambda: file_numpy_reference(path, y, t), args.repeat), n, probe)
         rule = row(n, n_m, "typical", "file", "numpy rule, chunked (readinto)",
                    best(lambda: file_numpy_rule(path, y, t), args.repeat), n, probe, numpy)
-        for d in (True, False):
-            for th in args.threads:
-                row(n, n_m, "typical", "file", f"edmf_rs {th} thr, diagnostics={d}",
-                    best(lambda th=th, d=d: edmf(str(path), y, t, th, d), args.repeat), n, probe, numpy, rule)
+        edmf_rows(n, n_m, "typical", "file", lambda: str(path), y, t, args, (probe, numpy, rule))
         # The kernel alone on the same data, in memory: the ceiling for streaming.
         m = min(n, 20_000_000)
         with open(path, "rb") as fh:
             np.lib.format.read_magic(fh)
             np.lib.format.read_array_header_2_0(fh)
             head = np.fromfile(fh, dtype=np.float32, count=m * n_m).reshape(m, n_m)
-        th = max(args.threads)
-        for d in (True, False):
-            row(m, n_m, "typical", "mem", f"edmf_rs {th} thr, diagnostics={d}",
-                best(lambda d=d: edmf(head, y, t, th, d), args.repeat), m, probe)
+        edmf_rows(m, n_m, "typical", "mem", lambda: head, y, t, args, (probe,), threads=[max(args.threads)])
         head = None  # frees the 1.3 GB before the cold runs
         if args.cold:
             def cold():
@@ -252,10 +246,8 @@ def bench_streaming(args, tmp: Path):
 
             probe = row(n, n_m, "typical", "disk", "numpy readinto chunks (cold)",
                         best(lambda: file_read(path), args.repeat, cold), n, 0)
-            for d in (True, False):
-                th = max(args.threads)
-                row(n, n_m, "typical", "disk", f"edmf_rs {th} thr, diagnostics={d} (cold)",
-                    best(lambda th=th, d=d: edmf(str(path), y, t, th, d), args.repeat, cold), n, probe)
+            edmf_rows(n, n_m, "typical", "disk", lambda: str(path), y, t, args, (probe,),
+                      threads=[max(args.threads)], setup=cold, suffix=" (cold)")
         base = peak_rss_mib("import-only")
         peak = peak_rss_mib(str(path))
         print(f"  peak RSS of a process running edmf_rs.falsify on the file: {peak:.0f} MiB "
