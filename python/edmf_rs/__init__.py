@@ -7,57 +7,58 @@ Typical use::
     thresholds = edmf_rs.threshold_bounds(combined, phi=0.95)
     result = edmf_rs.falsify(predictions, measured, thresholds)
     print(result.summary())
+
+The package is laid out in rooms, each with one job (see the README's Layout):
+``engine`` (the method, re-exported here), ``stream`` (durable chunked I/O),
+``project`` (project files), ``paper`` (the paper's reproduction),
+``examples``, plus ``reference`` (the NumPy oracle) and ``dask``.
 """
 
-from . import baselines, coverage, examples, reference
+__version__ = "0.1.0"
+
+from . import examples, reference
 from ._core import get_num_threads, set_num_threads
-from .checkpoint import CheckpointError
-from .baselines import LeastSquaresResult, PosteriorResult, bayesian_posterior, least_squares
-from .coverage import CoverageResult
-from .falsify import falsify
-from .model import falsify_model
-from .result import FalsificationResult, concatenate
-from .thresholds import Thresholds, sensor_probability, threshold_bounds
-from .uncertainty import CombinedUncertainty, combine, relative_to_measured
+from .engine.falsify import falsify
+from .engine.model import falsify_model
+from .engine.result import FalsificationResult, concatenate
+from .engine.thresholds import Thresholds, sensor_probability, threshold_bounds
+from .engine.uncertainty import CombinedUncertainty, combine, relative_to_measured
+from .paper import baselines, coverage
+from .paper.baselines import (
+    LeastSquaresResult,
+    PosteriorResult,
+    bayesian_posterior,
+    least_squares,
+)
+from .paper.coverage import CoverageResult
+from .project import Prognosis, Project, ProjectError, predict
+from .stream.checkpoint import CheckpointError
 
 __all__ = [
     "CheckpointError",
     "CombinedUncertainty",
     "CoverageResult",
+    "FalsificationResult",
     "LeastSquaresResult",
     "PosteriorResult",
     "Prognosis",
     "Project",
     "ProjectError",
+    "Thresholds",
     "baselines",
     "bayesian_posterior",
-    "coverage",
-    "examples",
-    "least_squares",
-    "predict",
-    "FalsificationResult",
-    "Thresholds",
     "combine",
     "concatenate",
+    "coverage",
+    "examples",
     "falsify",
     "falsify_model",
     "get_num_threads",
+    "least_squares",
+    "predict",
     "reference",
     "relative_to_measured",
     "sensor_probability",
     "set_num_threads",
     "threshold_bounds",
 ]
-__version__ = "0.1.0"
-
-# Project runs need pandas; import them on first use so `import edmf_rs` stays light.
-_LAZY = {"Project": "project", "ProjectError": "project", "Prognosis": "prognosis", "predict": "prognosis"}
-
-
-def __getattr__(name):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-    raise AttributeError(f"module 'edmf_rs' has no attribute {name!r}")
-

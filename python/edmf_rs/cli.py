@@ -47,10 +47,10 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         if args.command == "reproduce":
-            from .reproduce import reproduce_cli
+            from .paper.reproduce import reproduce_cli
 
             return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed)
-        from .project import run_cli
+        from .project.run import run_cli
 
         if args.example:
             project, out = EXAMPLES / f"{args.example}.toml", args.out or args.example

@@ -25,13 +25,14 @@ except ImportError as exc:  # pragma: no cover - exercised in a subprocess test
     ) from exc
 
 from . import _core
-from ._validate import finite_vector, flag, positive_int, real_array
-from .chunks import as_chunk
-from .falsify import _readonly, from_accumulator
-from .model import evaluate, is_parameter_array
-from .progress import bar
-from .result import FalsificationResult, concatenate
-from .thresholds import Thresholds
+from .engine._validate import finite_vector, flag, positive_int, real_array
+from .engine.durable import from_accumulator
+from .engine.durable import readonly as _readonly
+from .engine.model import evaluate, is_parameter_array
+from .engine.result import FalsificationResult, concatenate
+from .engine.thresholds import Thresholds
+from .stream.chunks import as_chunk
+from .stream.progress import bar
 
 
 def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,

@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from .result import FalsificationResult
-from .thresholds import Thresholds
+from .engine.result import FalsificationResult
+from .engine.thresholds import Thresholds
 
 
 def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") -> float:

@@ -1,5 +1,5 @@
 """Worked examples from Goulet & Smith (2013)."""
 
-from . import cantilever
+from ..paper import cantilever
 
 __all__ = ["cantilever"]

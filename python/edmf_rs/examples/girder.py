@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_text
+from ..stream.atomic import write_text
 
 SPAN = 20_000.0            # mm
 N_ELEMENTS = 20            # 1 m elements: every sensor and axle sits on a node

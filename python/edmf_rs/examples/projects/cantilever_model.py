@@ -10,9 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-
-from edmf_rs.atomic import write_text
 from edmf_rs.examples import cantilever
+from edmf_rs.stream.atomic import write_text
 
 N_SENSORS = 10
 SEED = 2013

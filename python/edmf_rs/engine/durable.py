@@ -1,0 +1,166 @@
+"""The durability layer around a falsification loop.
+
+``falsify`` and ``falsify_model`` feed chunks to a Rust accumulator; whether
+that work is saved to a checkpoint folder as it goes is this module's
+business, not theirs. Both loops talk to a run object with the same small
+interface, whichever kind it is:
+
+- :class:`Ephemeral` (no ``checkpoint`` folder): every call is free and the
+  result is read straight from the accumulator;
+- :class:`Durable` (a folder): it resumes where the folder left off, records
+  the rows it must recognise on resumption, saves when due, on errors and at
+  the end, and reads the finished result back from the folder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..stream.checkpoint import Checkpoint, digest, save_on_error
+from .result import FalsificationResult
+from .thresholds import Thresholds
+
+
+def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds) -> FalsificationResult:
+    """Reads a finished ``_core.Falsifier`` into a :class:`FalsificationResult`."""
+    tally = acc.tally()
+    violations = acc.take_violations()
+    return FalsificationResult(
+        thresholds=thresholds,
+        measurements=measurements,
+        n_instances=int(acc.n_instances),
+        candidate_indices=readonly(acc.take_candidates().view(np.int64)),  # moved, indices < 2**63: no copy
+        per_sensor_falsified=None if tally is None else readonly(tally[0].astype(np.int64)),
+        falsified_only_by=None if tally is None else readonly(tally[1].astype(np.int64)),
+        n_invalid=None if tally is None else int(tally[2]),
+        n_violated=None if violations is None else readonly(violations.view(np.int32)),
+    )
+
+
+def readonly(arr: np.ndarray) -> np.ndarray:
+    arr.flags.writeable = False
+    return arr
+
+
+class Ephemeral:
+    """A run that keeps nothing: starts at instance 0, never finished before."""
+
+    start = 0
+    finished = False
+    row_check = None
+
+    def __enter__(self) -> Ephemeral:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+    def done(self, first: int, rows: np.ndarray) -> None:
+        """Instances ``first ..`` (``rows``, the input rows) are in the accumulator."""
+
+    def due(self) -> bool:
+        return False
+
+    def save(self, acc, kept=None, **extra) -> None:
+        pass
+
+    def save_on_error(self, acc, exc: BaseException, kept=None, **extra) -> None:
+        pass
+
+    @property
+    def extra(self) -> dict:
+        return {}
+
+    def result(self, acc, measurements: np.ndarray, thresholds: Thresholds, kept=None,
+               **extra) -> FalsificationResult:
+        """The result read from ``acc``; ``kept``: the candidates' parameter and
+        prediction rows, batch by batch (``falsify_model``)."""
+        result = from_accumulator(acc, measurements, thresholds)
+        if kept is None:
+            return result
+        p = extra.get("n_parameters", 0)
+        params = np.concatenate(kept["parameters"]) if kept["parameters"] else np.empty((0, p))
+        preds = (np.concatenate(kept["predictions"]) if kept["predictions"]
+                 else np.empty((0, measurements.shape[0])))
+        return replace(result, candidate_parameters=readonly(params), candidate_predictions=readonly(preds))
+
+
+class Durable:
+    """A run saved in a checkpoint folder (see :mod:`edmf_rs.stream.checkpoint`).
+
+    ``start`` is the first instance still to do, ``row_check`` the check a
+    resumed source applies to the rows it skips, ``finished`` whether the
+    folder already holds the whole run.
+    """
+
+    def __init__(self, folder, fingerprint: dict, every: float, fields: tuple[str, ...] = (),
+                 input_name: str = "predictions"):
+        self._ckpt = Checkpoint(folder, fingerprint, every, fields, input_name=input_name)
+        self.start = self._ckpt.n_done
+        self.finished = self._ckpt.complete
+        self.row_check = self._ckpt.verify_row
+        self._tail: tuple[int, np.ndarray] | None = None  # last instance done, recognised on resumption
+
+    def __enter__(self) -> Durable:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._ckpt.close()  # frees the folder for the next run, even after an error
+
+    @property
+    def extra(self) -> dict:
+        """Small facts saved with the state (e.g. the number of parameters)."""
+        return self._ckpt.extra
+
+    def saved_result(self, rest, measurements: np.ndarray, thresholds: Thresholds,
+                     reread: bool = True) -> FalsificationResult:
+        """The finished run's result, once the input is confirmed to be the
+        same: ``rest`` is the input from instance ``start`` on (``reread``:
+        an array or file, whose skipped rows were checked) or, for an iterable
+        that is not drained again, the input from its first instance."""
+        if reread:
+            self._ckpt.confirm_finished(rest)
+        else:
+            self._ckpt.confirm_first_row(rest)
+        return FalsificationResult(thresholds=thresholds, measurements=measurements,
+                                   **self._ckpt.saved(thresholds.n_sensors))
+
+    def done(self, first: int, rows: np.ndarray) -> None:
+        if not len(rows):
+            return
+        if first == 0:
+            self._ckpt.first_row = digest(rows[0])
+        self._tail = (first + len(rows) - 1, np.array(rows[-1], copy=True))
+
+    def due(self) -> bool:
+        return self._ckpt.due()
+
+    def save(self, acc, kept=None, **extra) -> None:
+        self._ckpt.extra.update(extra)
+        self._ckpt.flush(acc, self._tail, kept)
+
+    def save_on_error(self, acc, exc: BaseException, kept=None, **extra) -> None:
+        """Keeps the work done before ``exc`` (the failing chunk left no trace in ``acc``)."""
+        self._ckpt.extra.update(extra)
+        save_on_error(self._ckpt, acc, self._tail, exc, kept)
+
+    def result(self, acc, measurements: np.ndarray, thresholds: Thresholds, kept=None,
+               **extra) -> FalsificationResult:
+        """Saves the final state and reads the whole run back from the folder."""
+        self._ckpt.extra.update(extra)
+        self._ckpt.flush(acc, self._tail, kept, final=True)
+        return FalsificationResult(thresholds=thresholds, measurements=measurements,
+                                   **self._ckpt.saved(thresholds.n_sensors))
+
+
+def open_run(folder, fingerprint: dict, every: float, fields: tuple[str, ...] = (),
+             input_name: str = "predictions") -> Ephemeral | Durable:
+    """A :class:`Durable` run in ``folder``, or an :class:`Ephemeral` one when it is None."""
+    if folder is None:
+        return Ephemeral()
+    return Durable(folder, fingerprint, every, fields, input_name)
+
+
+__all__ = ["Durable", "Ephemeral", "from_accumulator", "open_run", "readonly"]

@@ -1,0 +1,113 @@
+"""Falsification of model instances (Eq. 8) by the Rust core, in memory or streaming."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .. import _core
+from ..stream.checkpoint import every_seconds, fingerprint
+from ..stream.chunks import FileSource, close, open_source
+from ..stream.npy import CHUNK_BYTES
+from ..stream.progress import bar
+from ._validate import finite_vector, flag, positive_int
+from .durable import open_run
+from .result import FalsificationResult
+from .thresholds import Thresholds
+
+
+def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,
+            keep_violations: bool | None = None, chunk_rows: int | None = None, progress: bool = True,
+            checkpoint: str | os.PathLike | None = None, checkpoint_every: float = 60.0) -> FalsificationResult:
+    """Falsify every model instance whose residual leaves the thresholds at any sensor.
+
+    An instance (row of ``predictions``) is a candidate iff for every sensor i,
+    ``low_i <= g_i(theta) - y_i <= high_i`` (Eq. 8, inclusive).
+
+    Parameters
+    ----------
+    predictions
+        Model predictions g(theta), one row per instance and one column per
+        sensor: a 2-D float64/float32 array (C, Fortran or strided, read in
+        place), a path to a ``.npy`` file of any size (read in chunks by a
+        background thread while the previous chunk is falsified: memory does
+        not grow with N; any byte order, integers allowed), or an iterable of
+        2-D chunks (each used before the next is asked for, so a generator
+        may refill one buffer). The result does not depend on the chunking
+        nor on the thread count.
+    measurements
+        Measured values y, one per sensor.
+    thresholds
+        A :class:`Thresholds`, e.g. from :func:`threshold_bounds`.
+    diagnostics
+        Visit every sensor of every instance to count which sensors falsify
+        what (default). ``False`` stops at the first violated sensor: fastest,
+        candidates only.
+    keep_violations
+        Keep the number of violated sensors of every instance (``n_violated``).
+        Default: yes for arrays and iterables, no for files and memory maps.
+    chunk_rows
+        Rows per chunk when splitting an array or reading a file.
+    progress
+        Show a progress bar once the run lasts a few seconds.
+    checkpoint
+        A folder where the run saves its candidates and position as it goes
+        (every ``checkpoint_every`` seconds, on Ctrl-C and at the end). Calling
+        again with the same folder and inputs resumes after the last saved
+        chunk (or returns the finished result); other inputs are refused
+        (checked by their measurements, thresholds, options, length and
+        first and last rows done; a finished run over an iterable returns its
+        saved result after checking only the iterable's first chunk). A folder
+        serves one run at a time: a second run on it meanwhile is refused.
+    """
+    if not isinstance(thresholds, Thresholds):
+        raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
+    y = finite_vector(measurements, "measurements")
+    if y.shape[0] != thresholds.n_sensors:
+        raise ValueError(
+            f"measurements: expected {thresholds.n_sensors} values (one per threshold), got {y.shape[0]}"
+        )
+    if chunk_rows is not None:
+        chunk_rows = positive_int(chunk_rows, "chunk_rows")
+    diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    every = every_seconds(checkpoint_every)
+    if keep_violations is None:
+        keep_violations = diagnostics and not isinstance(predictions, (str, bytes, os.PathLike, np.memmap))
+    keep_violations = flag(keep_violations, "keep_violations")
+    if keep_violations and not diagnostics:
+        raise ValueError("keep_violations: expected False when diagnostics=False")
+    if checkpoint is not None and chunk_rows is None:
+        chunk_rows = max(1024, CHUNK_BYTES // (8 * y.shape[0]))  # so an array is checkpointed in steps too
+    source = open_source(predictions, y.shape[0], chunk_rows)
+    fields = ("n_violated",) if keep_violations else ()
+    fp = fingerprint("falsify", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
+                     n_instances=source.n_instances)
+    with open_run(checkpoint, fp, every, fields) as run:
+        if run.finished:
+            reread = source.n_instances is not None  # an iterable is not drained again: its first chunk is checked
+            rest = source.chunks(run.start, run.row_check) if reread else source.chunks()
+            return run.saved_result(rest, y, thresholds, reread)
+        acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
+                              keep_violations=keep_violations)
+        chunks = source.chunks(run.start, run.row_check)
+        with bar(source.n_instances, progress and _streams(source, chunk_rows), initial=run.start) as progress_bar:
+            try:
+                for chunk in chunks:  # Eq. 8, chunk after chunk, in Rust with the GIL released
+                    first = run.start + int(acc.n_instances)
+                    acc.update(chunk)
+                    run.done(first, chunk)
+                    progress_bar.update(chunk.shape[0])
+                    if run.due():
+                        run.save(acc)
+            except BaseException as exc:
+                run.save_on_error(acc, exc)
+                raise
+            finally:
+                close(chunks)
+        return run.result(acc, y, thresholds)
+
+
+def _streams(source, chunk_rows) -> bool:
+    """A bar is worth it for files, iterables and arrays cut into chunks."""
+    return isinstance(source, FileSource) or source.n_instances is None or chunk_rows is not None

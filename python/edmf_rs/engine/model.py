@@ -1,0 +1,232 @@
+"""Falsification straight from a Python model: parameters in, candidates out.
+
+Batches are pipelined: while the Rust core falsifies batch k on its own
+threads (the GIL released), Python evaluates the model on batch k+1. Only the
+candidates' parameters and predictions are kept, so memory follows the size
+of the candidate model set, not the number of instances.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .. import _core
+from ..stream.checkpoint import every_seconds, fingerprint
+from ..stream.chunks import RowCheck, as_chunk, skip_rows
+from ..stream.progress import bar
+from ._validate import finite_vector, flag, positive_int, real_array
+from .durable import open_run
+from .result import FalsificationResult
+from .thresholds import Thresholds
+
+
+def parameter_batches(parameters, batch_size: int, start: int = 0,
+                      check: RowCheck | None = None) -> tuple[Iterator[np.ndarray], int | None]:
+    """Batches of parameter sets (float64 rows) from row ``start`` on, and the
+    total count when known. When resuming, ``check`` sees rows 0 and start-1."""
+    if is_parameter_array(parameters):
+        arr = real_array(parameters, "parameters", copy=False)  # a memmap stays on disk
+        if arr.ndim == 1:
+            arr = arr[:, None]
+        if arr.ndim != 2:
+            raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
+        if check is not None and start > 0:
+            check(0, arr[0])
+            check(start - 1, arr[start - 1])
+        return (arr[i:i + batch_size] for i in range(start, arr.shape[0], batch_size)), arr.shape[0]
+    if isinstance(parameters, (str, bytes)) or not isinstance(parameters, Iterable):
+        raise TypeError(
+            f"parameters: expected an (N, p) array or an iterable of (n, p) batches, got {type(parameters).__name__}"
+        )
+
+    def checked() -> Iterator[np.ndarray]:
+        width = None
+        for k, batch in enumerate(parameters):
+            # A copy: batch k is still being falsified while the source
+            # produces batch k+1, perhaps into the same buffer.
+            arr = real_array(batch, f"parameters (batch {k})", copy=True)
+            arr = arr[:, None] if arr.ndim == 1 else arr
+            if arr.ndim != 2 or (width is not None and arr.shape[1] != width):
+                raise ValueError(
+                    f"parameters: batch {k} has shape {arr.shape}, expected (n, {width or 'p'})"
+                    + (" like the batches before it" if width is not None else "")
+                )
+            width = arr.shape[1]
+            yield arr
+    return skip_rows(checked(), start, check, "parameters"), None
+
+
+def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, nan: str,
+             index: int | None = None) -> np.ndarray:
+    """Runs the model on one batch and checks what it returns."""
+    where = (f"batch {index}, " if index is not None else "") + f"instances {offset}..{offset + len(batch) - 1}"
+    try:
+        predictions = model(batch)
+    except Exception as exc:
+        exc.add_note(f"edmf_rs: raised by the model on {where}")
+        raise
+    try:
+        predictions = np.asarray(predictions)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"model: expected an array of predictions, got {type(predictions).__name__} "
+                        f"on {where}") from exc
+    if predictions.shape != (batch.shape[0], n_sensors):
+        raise ValueError(
+            f"model: returned shape {predictions.shape} for {batch.shape[0]} parameter sets ({where}), "
+            f"expected ({batch.shape[0]}, {n_sensors}) (one prediction per sensor)"
+        )
+    chunk = as_chunk(predictions, n_sensors, name=f"model ({where})")
+    if np.may_share_memory(chunk, predictions):
+        # Rust reads this batch while the model computes the next one: a model
+        # that reuses its output buffer would overwrite it under the reader.
+        chunk = chunk.copy()
+    if nan == "raise":
+        bad = np.flatnonzero(np.isnan(chunk).any(axis=1))
+        if bad.size:
+            raise ValueError(
+                f"model: returned NaN for instance {offset + bad[0]} ({where}; parameters "
+                f"{batch[bad[0]].tolist()}); pass nan='falsify' to count such instances as invalid instead"
+            )
+    return chunk
+
+
+def falsify_model(model: Callable, parameters, measurements, thresholds: Thresholds, *,
+                  batch_size: int = 10_000, diagnostics: bool = True, keep_violations: bool = False,
+                  nan: str = "raise", progress: bool = True,
+                  on_batch: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
+                  checkpoint: str | os.PathLike | None = None,
+                  checkpoint_every: float = 60.0) -> FalsificationResult:
+    """Evaluate ``model`` on every parameter set and falsify as it goes (Eq. 8).
+
+    Parameters
+    ----------
+    model
+        Vectorised callable: ``model(batch)`` with ``batch`` of shape (n, p)
+        returns predictions of shape (n, n_m), one column per sensor.
+    parameters
+        An (N, p) array, or an iterable of (n, p) batches consumed once (e.g.
+        a generator of ``scipy.stats.qmc.Sobol(d).random(n)`` draws).
+    nan
+        ``"raise"`` (default): a NaN prediction is an error naming the
+        instance; ``"falsify"``: such instances are counted invalid.
+    on_batch
+        Called as ``on_batch(offset, parameters, predictions)`` for every batch,
+        e.g. to compute extra diagnostics.
+    progress
+        Show a progress bar once the run lasts a few seconds.
+    checkpoint
+        A folder where the run saves its candidates and position as it goes
+        (every ``checkpoint_every`` seconds, on Ctrl-C or a model error, and at
+        the end). Calling again with the same folder and inputs resumes after
+        the last saved batch without evaluating the model on the parameter
+        sets already done (an iterable is still drawn from, to skip them; an
+        array is sliced); other inputs are refused, and so is a second run on
+        the folder while this one holds it.
+
+    Returns a :class:`FalsificationResult` whose ``candidate_parameters`` and
+    ``candidate_predictions`` hold the candidates' rows.
+    """
+    if not callable(model):
+        raise TypeError(f"model: expected a callable, got {type(model).__name__}")
+    if not isinstance(thresholds, Thresholds):
+        raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
+    if nan not in ("raise", "falsify"):
+        raise ValueError(f"nan: expected 'raise' or 'falsify', got {nan!r}")
+    if on_batch is not None and not callable(on_batch):
+        raise TypeError(f"on_batch: expected a callable or None, got {type(on_batch).__name__}")
+    diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    keep_violations = flag(keep_violations, "keep_violations")
+    if keep_violations and not diagnostics:
+        raise ValueError("keep_violations: expected False when diagnostics=False")
+    y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
+    batch_size = positive_int(batch_size, "batch_size")
+    every = every_seconds(checkpoint_every)
+    n_total = _known_length(parameters)
+    fp = fingerprint("falsify_model", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
+                     nan=nan, model=_model_name(model), n_instances=n_total)
+    fields = ("n_violated",) if keep_violations else ()
+    with open_run(checkpoint, fp, every, fields + ("parameters", "predictions"), input_name="parameters") as run:
+        if run.finished:
+            if n_total is not None:  # an array: the rows done are checked as they are skipped
+                rest = parameter_batches(parameters, batch_size, run.start, run.row_check)[0]
+            else:  # an iterable is not drained again: its first batch is checked
+                rest = parameter_batches(parameters, batch_size)[0]
+            return run.saved_result(rest, y, thresholds, reread=n_total is not None)
+        start = run.start
+        batches, total = parameter_batches(parameters, batch_size, start, run.row_check)
+        acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
+                              keep_violations=keep_violations)
+        kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
+        n_params = run.extra.get("n_parameters")
+        if n_params is None and isinstance(parameters, np.ndarray) and parameters.ndim in (1, 2):
+            n_params = parameters.shape[1] if parameters.ndim == 2 else 1  # known even when there are no rows
+
+        def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
+            # Runs on the worker thread, which signals never interrupt: the
+            # accumulator, the kept rows and the run's record move together.
+            seen = acc.n_candidates
+            acc.update(preds)
+            local = acc.candidates(seen).astype(np.int64) - offset
+            kept["parameters"].append(params[local])
+            kept["predictions"].append(preds[local])
+            run.done(start + offset, params)
+
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="edmf-rs-falsify") as pool, \
+                bar(total, progress, initial=start) as progress_bar:
+            pending = None
+            offset = 0  # instances of this session (after `start`)
+            try:
+                for k, params in enumerate(batches):
+                    if n_params is not None and params.shape[1] != n_params:
+                        raise ValueError(f"parameters: batch {k} has {params.shape[1]} columns, expected {n_params}"
+                                         " like the batches before it")
+                    n_params = params.shape[1]
+                    if params.shape[0] == 0:
+                        continue
+                    # The model runs here while the worker falsifies the previous batch.
+                    preds = evaluate(model, params, start + offset, y.shape[0], nan, k if start == 0 else None)
+                    if on_batch is not None:
+                        on_batch(start + offset, params, preds)
+                    if pending is not None:
+                        pending.result()
+                        pending = None
+                        if run.due():
+                            run.save(acc, kept, n_parameters=n_params)
+                    pending = pool.submit(falsify_batch, params, preds, offset)
+                    offset += params.shape[0]
+                    progress_bar.update(params.shape[0])
+                if pending is not None:
+                    pending.result()
+            except BaseException as exc:
+                try:
+                    if pending is not None:
+                        pending.result()  # the worker's batch completes or leaves no trace
+                except BaseException:
+                    pass
+                if pending is None or pending.done():  # never save while the worker runs
+                    run.save_on_error(acc, exc, kept, n_parameters=n_params)
+                raise
+
+        return run.result(acc, y, thresholds, kept, n_parameters=n_params if n_params is not None else 0)
+
+
+def is_parameter_array(parameters) -> bool:
+    """An (N, p) array, or a list of parameter rows (a list of 2-D blocks is
+    an iterable of batches)."""
+    return isinstance(parameters, np.ndarray) or (isinstance(parameters, (list, tuple)) and bool(parameters)
+                                                  and np.ndim(parameters[0]) < 2)
+
+
+def _known_length(parameters) -> int | None:
+    return int(np.shape(parameters)[0]) if is_parameter_array(parameters) else None
+
+
+def _model_name(model) -> str:
+    """The model's qualified name, so resuming a folder with another model is refused."""
+    target = getattr(model, "func", model)  # functools.partial
+    name = getattr(target, "__qualname__", None) or type(target).__qualname__
+    return f"{getattr(target, '__module__', '') or ''}.{name}"

@@ -1,0 +1,220 @@
+"""Files and code a project names: the measurements CSV, the model function,
+precomputed predictions. Every problem is a :class:`ProjectError` naming the
+file, the key or line, and what was expected."""
+
+from __future__ import annotations
+
+import csv
+import importlib
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from .schema import ProjectError, Sensor
+
+TABLE_SUFFIXES = (".npy", ".csv", ".parquet")
+
+
+def read_measurements(file: Path, key: str = "measurements.file") -> tuple[Sensor, ...]:
+    """Sensors of a CSV with columns ``sensor,value`` and optionally ``type,location,unit``."""
+    try:
+        fh = open(file, newline="", encoding="utf-8-sig")
+    except OSError as exc:
+        raise ProjectError(f"{file}: cannot read the measurements ({key}): {exc.strerror}") from None
+    sensors = []
+    with fh:
+        reader = csv.DictReader(fh)
+        columns = [c.strip() for c in reader.fieldnames or []]
+        missing = [c for c in ("sensor", "value") if c not in columns]
+        if missing:
+            raise ProjectError(f"{file}: line 1: expected a header with columns sensor,value "
+                               f"(optional: type,location,unit), missing {', '.join(missing)}")
+        reader.fieldnames = columns
+        for row in reader:
+            line = reader.line_num
+            name = (row.get("sensor") or "").strip()
+            if not name:
+                raise ProjectError(f"{file}: line {line}: sensor: expected a sensor name, got an empty cell")
+            value = _number(row.get("value"), file, line, "value", required=True)
+            location = _number(row.get("location"), file, line, "location", required=False)
+            sensors.append(Sensor(name, value, type=(row.get("type") or "").strip(), location=location,
+                                  unit=(row.get("unit") or "").strip()))
+    if not sensors:
+        raise ProjectError(f"{file}: expected at least one sensor row after the header")
+    return tuple(sensors)
+
+
+def _number(text, file: Path, line: int, column: str, required: bool) -> float | None:
+    text = (text or "").strip()
+    if not text:
+        if required:
+            raise ProjectError(f"{file}: line {line}: {column}: expected a number, got an empty cell")
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise ProjectError(f"{file}: line {line}: {column}: expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise ProjectError(f"{file}: line {line}: {column}: expected a finite number, got {text!r}")
+    return value
+
+
+def check_sensors(sensors: tuple[Sensor, ...], exclude: tuple[str, ...], where: str, label: str) -> tuple[int, ...]:
+    """Indices of the sensors kept for the identification, after checking names.
+
+    ``where`` names the measurements (file or table), ``label`` the project file.
+    """
+    seen = set()
+    for s in sensors:
+        if s.name in seen:
+            raise ProjectError(f"{where}: sensor '{s.name}' appears twice; expected unique sensor names")
+        seen.add(s.name)
+    unknown = [name for name in exclude if name not in seen]
+    if unknown:
+        raise ProjectError(f"{label}: measurements.exclude: unknown sensor '{unknown[0]}' "
+                           f"(the sensors are: {', '.join(s.name for s in sensors)})")
+    kept = tuple(i for i, s in enumerate(sensors) if s.name not in exclude)
+    if not kept:
+        raise ProjectError(f"{label}: measurements.exclude: expected at least one sensor left, all are excluded")
+    return kept
+
+
+def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
+    """The callable ``module:function``, importing with ``path`` on sys.path.
+
+    ``path`` stays on sys.path so the model can import its own helpers lazily.
+    A module of the same name cached from another project's folder is
+    imported afresh from this project's folder, never silently reused.
+    """
+    module_name, _, attr = ref.partition(":")
+    if not path.is_dir():
+        raise ProjectError(f"{label}: {key.rsplit('.', 1)[0]}.path: expected a folder, got '{path}'")
+    folder = str(path.resolve())
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    _forget_if_from_elsewhere(module_name, Path(folder))
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        if isinstance(exc, ModuleNotFoundError) and exc.name and module_name.startswith(exc.name):
+            raise ProjectError(f"{label}: {key}: cannot import module '{module_name}' "
+                               f"(looked in {path} and the installed packages)") from None
+        raise ProjectError(f"{label}: {key}: importing '{module_name}' failed: {exc}") from None
+    try:
+        func = module
+        for part in attr.split("."):
+            func = getattr(func, part)
+    except AttributeError:
+        raise ProjectError(f"{label}: {key}: module '{module_name}' has no '{attr}'") from None
+    if not callable(func):
+        raise ProjectError(f"{label}: {key}: '{ref}' is not callable (got {type(func).__name__})")
+    return func
+
+
+def _forget_if_from_elsewhere(module_name: str, folder: Path) -> None:
+    """Drops a cached module (and its submodules) when this project's folder
+    holds a module of that name but the cached one was loaded from elsewhere."""
+    top = module_name.split(".")[0]
+    local = folder / f"{top}.py" if (folder / f"{top}.py").is_file() else folder / top / "__init__.py"
+    cached = sys.modules.get(top)
+    if not local.is_file() or cached is None:
+        return
+    cached_file = getattr(cached, "__file__", None)
+    if cached_file is None or Path(cached_file).resolve() != local.resolve():
+        for name in [n for n in sys.modules if n == top or n.startswith(top + ".")]:
+            del sys.modules[name]
+
+
+class CheckedModel:
+    """The project's model function, with its output checked batch by batch.
+
+    It is called as ``function(theta, **options)`` with theta of shape (n, p)
+    and must return (n, n_m) predictions, one column per sensor of the
+    measurements (excluded sensors included); their columns are dropped here.
+    Batches arrive in instance order, so the running offset names instances.
+    """
+
+    def __init__(self, function: Callable, options: dict, *, n_columns: int, kept: tuple[int, ...],
+                 parameter_names: tuple[str, ...], nan: str, where: str):
+        self.function, self.options = function, dict(options)
+        self.n_columns, self.kept = n_columns, np.asarray(kept)
+        self.parameter_names, self.nan, self.where = parameter_names, nan, where
+        self.offset = 0
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray:
+        out = self.function(theta, **self.options)
+        try:
+            out = np.asarray(out, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ProjectError(f"{self.where}: returned {type(out).__name__}, expected an array of numbers "
+                               f"of shape ({len(theta)}, {self.n_columns})") from None
+        if out.shape != (theta.shape[0], self.n_columns):
+            raise ProjectError(
+                f"{self.where}: returned shape {out.shape} for {theta.shape[0]} parameter sets, expected "
+                f"({theta.shape[0]}, {self.n_columns}): one column per sensor, in the order of the measurements"
+            )
+        if self.nan == "raise":
+            bad = np.flatnonzero(np.isnan(out).any(axis=1))
+            if bad.size:
+                values = ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, theta[bad[0]]))
+                raise ProjectError(f"{self.where}: returned NaN for instance {self.offset + bad[0]} ({values}); "
+                                   "expected finite predictions (or set nan = \"falsify\" under [model])")
+        self.offset += theta.shape[0]
+        return out if self.kept.size == self.n_columns else out[:, self.kept]
+
+
+def table_columns(file: Path, key: str, label: str) -> list[str] | int:
+    """Column names of a CSV/Parquet file, or the width of a 2-D .npy array."""
+    if not file.is_file():
+        raise ProjectError(f"{label}: {key}: no such file '{file}'")
+    suffix = file.suffix.lower()
+    try:
+        if suffix == ".npy":
+            shape = np.load(file, mmap_mode="r").shape
+            if len(shape) != 2:
+                raise ProjectError(f"{file}: expected a 2-D array (instances, columns), got shape {shape}")
+            return shape[1]
+        if suffix == ".csv":
+            import pandas as pd
+
+            return [str(c) for c in pd.read_csv(file, nrows=0).columns]
+        import pyarrow.parquet as pq
+
+        return list(pq.read_schema(file).names)
+    except ProjectError:
+        raise
+    except Exception as exc:  # a corrupt file: say which, without a traceback
+        raise ProjectError(f"{file}: cannot read it as {suffix[1:]} ({key}): {exc}") from None
+
+
+def read_table(file: Path, columns: list[str] | None, key: str) -> np.ndarray:
+    """The (N, k) float64 array of ``columns`` (in that order) of a CSV/Parquet file, or a .npy array."""
+    suffix = file.suffix.lower()
+    try:
+        if suffix == ".npy":
+            return np.asarray(np.load(file), dtype=np.float64)
+        import pandas as pd
+
+        frame = pd.read_csv(file) if suffix == ".csv" else pd.read_parquet(file)
+        frame.columns = [str(c) for c in frame.columns]
+        return frame[columns].to_numpy(dtype=np.float64)
+    except (ValueError, TypeError) as exc:
+        raise ProjectError(f"{file}: expected numbers in every column used ({key}): {exc}") from None
+
+
+def match_columns(found: list[str] | int, wanted: list[str], allowed: set[str], file: Path, what: str) -> None:
+    """Checks a file's columns against the names it must hold (``allowed`` may also appear)."""
+    if isinstance(found, int):
+        if found != len(allowed):
+            raise ProjectError(f"{file}: expected {len(allowed)} columns ({what}, in order), got {found}")
+        return
+    missing = [c for c in wanted if c not in found]
+    unexpected = [c for c in found if c not in allowed]
+    if missing or unexpected:
+        detail = "; ".join(part for part in (
+            f"missing {', '.join(missing)}" if missing else "",
+            f"unexpected {', '.join(unexpected)}" if unexpected else "") if part)
+        raise ProjectError(f"{file}: expected columns named after the {what} ({', '.join(wanted)}), {detail}")

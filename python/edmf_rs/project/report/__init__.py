@@ -1,0 +1,1 @@
+"""The HTML report of a project run (``html``) and its figures (``plots``)."""

@@ -1,0 +1,218 @@
+"""The outcome of running a project: candidates, thresholds, diagnostics, and
+the files ``edmf-rs run`` writes (summary.json last, so a folder holding a
+summary.json holds a complete run)."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..engine.result import FalsificationResult
+from ..engine.thresholds import Thresholds
+from ..engine.uncertainty import CombinedUncertainty
+from ..stream.atomic import atomic_path, write_bytes, write_text
+from .diagnostics import LeaveOneOut, Sensitivity, findings
+from .format import number
+from .prognosis import Prognosis, predict
+
+#: Instances kept for the plots; falsified ones are drawn from this sample.
+PLOT_SAMPLE = 3000
+SUMMARY_SCHEMA = "edmf_rs.project-summary/1"
+
+
+class PlotSample:
+    """A deterministic sample of every instance (every k-th one) for plots: falsified
+    instances are not kept by the falsification, so the plots draw on this."""
+
+    def __init__(self, n_instances: int, limit: int = PLOT_SAMPLE):
+        self.stride = max(1, math.ceil(n_instances / limit))
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def __call__(self, offset: int, parameters: np.ndarray, predictions: np.ndarray) -> None:
+        first = (-offset) % self.stride  # the next multiple of stride at or after offset
+        # copies: a view would keep the whole batch alive
+        self.parts.append((np.arange(offset + first, offset + parameters.shape[0], self.stride),
+                           parameters[first::self.stride].copy(),
+                           np.array(predictions[first::self.stride], dtype=np.float64)))
+
+    def finish(self, candidate_mask: np.ndarray) -> InstanceSample:
+        if not self.parts:
+            return InstanceSample(np.empty(0, np.int64), np.empty((0, 0)), np.empty((0, 0)), np.empty(0, bool))
+        index, theta, predictions = (np.concatenate(x) for x in zip(*self.parts))
+        return InstanceSample(index, theta, predictions, candidate_mask[index])
+
+
+@dataclass(frozen=True, eq=False)
+class InstanceSample:
+    """Every k-th instance: index, parameters, predictions and whether it is a candidate."""
+
+    index: np.ndarray
+    parameters: np.ndarray
+    predictions: np.ndarray
+    is_candidate: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """A project's identification: the :class:`FalsificationResult`, thresholds,
+    diagnostics, and the candidates as a DataFrame (parameters and predictions,
+    indexed by instance)."""
+
+    project: object
+    combined: CombinedUncertainty
+    thresholds: Thresholds
+    falsification: FalsificationResult
+    leave_one_out: LeaveOneOut
+    sensitivity: Sensitivity
+    candidates: pd.DataFrame
+    prognoses: tuple[Prognosis, ...]
+    sample: InstanceSample
+    elapsed: float
+
+    @property
+    def model_class_falsified(self) -> bool:
+        return self.falsification.model_class_falsified
+
+    def predict(self, qoi_model: Callable, uncertainty=None, *, probability: float = 0.95,
+                name: str = "quantity of interest", unit: str = "") -> Prognosis:
+        """Range of a quantity of interest over the candidates (see :mod:`edmf_rs.prognosis`)."""
+        return predict(qoi_model, self.falsification.candidate_parameters, uncertainty=uncertainty,
+                       probability=probability, name=name, unit=unit)
+
+    def parameter_ranges(self) -> dict[str, tuple[float, float] | None]:
+        """Each parameter's [min, max] over the candidates (None without candidates)."""
+        theta = self.falsification.candidate_parameters
+        return {p.name: (float(theta[:, j].min()), float(theta[:, j].max())) if theta.shape[0] else None
+                for j, p in enumerate(self.project.parameters)}
+
+    def findings(self) -> list[str]:
+        """Diagnostics in words: sensors, sensitivity, and parameters at their domain's edge."""
+        out = findings(self.leave_one_out, self.sensitivity, self.thresholds.phi)
+        for p, span in zip(self.project.parameters, self.parameter_ranges().values()):
+            if span is None:
+                continue
+            lo, hi = p.to_unit(np.array(span))
+            if hi - lo > 0.9:
+                out.append(f"{p.name} is hardly identified: the candidates span {100 * (hi - lo):.0f} % of its domain.")
+            elif lo <= 0.01 or hi >= 0.99:
+                edge = f"lower bound ({p.low:g})" if lo <= 0.01 else f"upper bound ({p.high:g})"
+                out.append(f"The candidates reach the {edge} of {p.name}: its true value may lie outside the "
+                           "domain; consider widening it.")
+        return out
+
+    def thresholds_table(self) -> pd.DataFrame:
+        """Per sensor: measured value, U_c moments, threshold bounds and leave-one-out counts."""
+        s, loo = self.project.sensors, self.leave_one_out
+        return pd.DataFrame({
+            "sensor": [x.name for x in s], "type": [x.type for x in s],
+            "location": [x.location for x in s], "unit": [x.unit for x in s],
+            "measured": [x.value for x in s],
+            "uc_mean": self.combined.mean, "uc_sd": self.combined.std,
+            "low": self.thresholds.low, "high": self.thresholds.high,
+            "falsified": loo.per_sensor_falsified, "falsified_only_by": loo.falsified_only_by,
+            "candidates_without_sensor": loo.candidates_without_sensor,
+        })
+
+    def summary(self) -> str:
+        """A few lines for the terminal."""
+        p, r = self.project, self.falsification
+        combined = "exact (normal)" if self.combined.exact else f"Monte Carlo, {p.n_samples:,} samples"
+        lines = [f"{p.name}: {r.n_instances:,} model instances, {r.n_sensors} sensors, phi = {p.phi:g} "
+                 f"({p.correction} correction), combined uncertainty {combined}"]
+        if r.model_class_falsified:
+            lines.append("candidate model set: EMPTY - every instance is falsified, so is the model class")
+        else:
+            lines.append(f"candidate model set: {r.n_candidates:,} instances "
+                         f"({100.0 * r.n_candidates / r.n_instances:.3g} %)")
+            for param, (lo, hi) in zip(p.parameters, self.parameter_ranges().values()):
+                unit = f" [{param.unit}]" if param.unit else ""
+                lines.append(f"  {param.name}{unit}: {number(lo)} .. {number(hi)}  "
+                             f"(domain {number(param.low)} .. {number(param.high)})")
+        if r.n_invalid:
+            lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
+        lines += [f"- {text}" for text in self.findings()]
+        lines += [f"prognosis: {prog.summary()}" for prog in self.prognoses]
+        return "\n".join(lines)
+
+    def summary_dict(self) -> dict:
+        """The content of summary.json."""
+        p, r, t = self.project, self.falsification, self.thresholds
+        sens = self.sensitivity
+        ranges = self.parameter_ranges()
+        return _clean({
+            "schema": SUMMARY_SCHEMA,
+            "project": {"name": p.name, "file": p.file.name, "description": p.description},
+            "instances": r.n_instances, "candidates": r.n_candidates, "invalid": r.n_invalid,
+            "model_class_falsified": r.model_class_falsified,
+            "identification": {
+                "phi": p.phi, "correction": p.correction, "per_sensor_probability": t.probability,
+                "combined_uncertainty": "exact" if self.combined.exact else "monte_carlo",
+                "monte_carlo_samples": None if self.combined.exact else p.n_samples,
+            },
+            "sampling": ({"method": "precomputed", "n": r.n_instances} if p.sampling is None else
+                         {"method": p.sampling.method, "n": p.sampling.n, "seed": p.sampling.seed,
+                          "points": dict(zip(p.parameter_names, p.sampling.points)) if p.sampling.points else None}),
+            "parameters": {param.name: {"unit": param.unit, "scale": param.scale, "low": param.low,
+                                        "high": param.high,
+                                        "candidates": None if ranges[param.name] is None else
+                                        {"min": ranges[param.name][0], "max": ranges[param.name][1]}}
+                           for param in p.parameters},
+            "thresholds": self.thresholds_table().to_dict(orient="records"),
+            "excluded_sensors": [s.name for s in p.excluded],
+            "diagnostics": {
+                "findings": self.findings(),
+                "suspect_sensors": [p.sensors[i].name for i in self.leave_one_out.suspects],
+                "fewest_sensors_violated": sens.fewest_violated,
+                "smallest_scale": sens.smallest_scale, "smallest_phi": sens.smallest_phi,
+                "phi_exact": sens.phi_exact,
+                "sensitivity": {"scale": sens.scales.tolist(), "candidates_at_scale": sens.candidates_at_scale.tolist(),
+                                "phi": sens.phis.tolist(), "candidates_at_phi": sens.candidates_at_phi.tolist()},
+            },
+            "prognosis": [prog.as_dict() for prog in self.prognoses],
+            "elapsed_seconds": round(self.elapsed, 3),
+        })
+
+    def write(self, out_dir: str | Path) -> Path:
+        """Writes plots, candidates.parquet, thresholds.csv, report.html, then summary.json.
+
+        Each file is written atomically; an earlier summary.json is removed
+        first, so an interrupted write never leaves one that looks complete.
+        """
+        from .report import html as report  # matplotlib only when writing
+        from .report import plots as report_plots
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").unlink(missing_ok=True)
+        figures = report_plots.figures(self)
+        for name, png in figures.items():
+            write_bytes(out / f"{name}.png", png)
+        with atomic_path(out / "candidates.parquet") as tmp:
+            self.candidates.reset_index().to_parquet(tmp, index=False)
+        write_text(out / "thresholds.csv", self.thresholds_table().to_csv(index=False))
+        write_text(out / "report.html", report.render(self, figures))
+        write_text(out / "summary.json", json.dumps(self.summary_dict(), indent=2) + "\n")
+        return out
+
+
+
+
+def _clean(obj):
+    """JSON-safe: NumPy scalars to Python, non-finite floats to null."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _clean(obj.tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj

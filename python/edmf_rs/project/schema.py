@@ -1,0 +1,387 @@
+"""The project file (TOML): reading and checking every table.
+
+Each check names the file, the dotted key (``parameters.E.low``) and what was
+expected, in one :class:`ProjectError`; nothing here reads other files or
+imports the model (see :mod:`edmf_rs.project_inputs`).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..engine.thresholds import CORRECTIONS
+from .sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
+
+_MISSING = object()
+DISTRIBUTIONS = {"normal": ("mean", "sd"), "uniform": ("low", "high")}
+
+
+class ProjectError(ValueError):
+    """A project file, or a file it names, that cannot be used as it is.
+
+    The message names the file, the key or line, and what was expected.
+    """
+
+
+class Table:
+    """A TOML table with where it came from, so errors can name the key."""
+
+    def __init__(self, file: str, key: str, data):
+        self.file, self.key = file, key
+        if not isinstance(data, dict):
+            raise self.error("", f"a table (e.g. [{key}])", data)
+        self.data = data
+
+    def path(self, key: str) -> str:
+        return f"{self.key}.{key}" if self.key and key else (self.key or key)
+
+    def error(self, key: str, expected: str, got=_MISSING) -> ProjectError:
+        where = self.path(key)
+        what = "missing" if got is _MISSING else f"got {got!r}"
+        return ProjectError(f"{self.file}: {where}: expected {expected}, {what}")
+
+    def check_keys(self, allowed) -> None:
+        for key in self.data:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, list(allowed), n=1)
+                hint = f"; did you mean '{close[0]}'?" if close else ""
+                raise ProjectError(
+                    f"{self.file}: unknown key '{self.path(key)}' "
+                    f"(expected one of: {', '.join(allowed)}){hint}"
+                )
+
+    def get(self, key: str, kind: str, default=_MISSING, *, choices=(), what: str = ""):
+        """The value of ``key`` checked against ``kind``: number, positive, int, str, choice, table, list."""
+        value = self.data.get(key, _MISSING)
+        expected = what or {
+            "number": "a number", "positive": "a positive number", "int": "an integer", "str": "a string",
+            "table": "a table", "list": "a list",
+            "choice": "one of " + ", ".join(map(repr, choices)),
+        }[kind]
+        if value is _MISSING:
+            if default is _MISSING:
+                raise self.error(key, expected)
+            return default
+        ok = {
+            "number": lambda v: _is_number(v),
+            "positive": lambda v: _is_number(v) and v > 0,
+            "int": lambda v: isinstance(v, int) and not isinstance(v, bool),
+            "str": lambda v: isinstance(v, str),
+            "choice": lambda v: v in choices,
+            "table": lambda v: isinstance(v, dict),
+            "list": lambda v: isinstance(v, list),
+        }[kind](value)
+        if not ok:
+            raise self.error(key, expected, value)
+        return float(value) if kind in ("number", "positive") else value
+
+    def table(self, key: str, default=_MISSING) -> Table:
+        value = self.data.get(key, _MISSING)
+        if value is _MISSING:
+            if default is _MISSING:
+                raise self.error(key, f"a table [{self.path(key)}]")
+            value = default
+        return Table(self.file, self.path(key), value)
+
+    def tables(self, key: str) -> list[Table]:
+        """An array of tables ([[key]]), possibly empty."""
+        value = self.data.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise self.error(key, f"an array of tables ([[{self.path(key)}]])", value)
+        return [Table(self.file, f"{self.path(key)}[{i}]", v) for i, v in enumerate(value)]
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """One measurement y_i: the sensor's name, measured value, and optional type, location and unit."""
+
+    name: str
+    value: float
+    type: str = ""
+    location: float | None = None
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """[model]: a vectorised function ``module:function``, or precomputed instances."""
+
+    function: str | None = None
+    path: Path | None = None
+    options: dict = field(default_factory=dict)
+    predictions: Path | None = None
+    parameters: Path | None = None
+    nan: str = "raise"
+    batch_size: int = 10_000
+
+
+@dataclass(frozen=True)
+class UncertaintySpec:
+    """One [[uncertainty]] source as written; ``sensors`` is "all", a list of names or {type = ...}."""
+
+    key: str
+    name: str
+    kind: str
+    distribution: str
+    values: tuple[float, float]  # (mean, sd) or (low, high)
+    relative_to: str
+    sensors: object
+
+
+@dataclass(frozen=True)
+class PrognosisSpec:
+    """One [[prognosis]]: a quantity of interest evaluated on the candidates."""
+
+    key: str
+    name: str
+    function: str
+    path: Path
+    options: dict
+    unit: str
+    uncertainty: tuple[str, tuple[float, float]] | None
+    probability: float
+
+
+@dataclass(frozen=True)
+class ProjectSpec:
+    """The project file, checked on its own (other files not read yet)."""
+
+    file: Path
+    name: str
+    description: str
+    phi: float
+    correction: str
+    n_samples: int
+    seed: int
+    parameters: tuple[Parameter, ...]
+    sampling: Sampling | None
+    model: ModelSpec
+    measurements_file: Path | None
+    inline_sensors: tuple[Sensor, ...]
+    exclude: tuple[str, ...]
+    uncertainty: tuple[UncertaintySpec, ...]
+    prognosis: tuple[PrognosisSpec, ...]
+
+
+TOP_LEVEL = ("identification", "parameters", "sampling", "model", "measurements", "sensors",
+             "uncertainty", "prognosis")
+
+
+def read_spec(path: str | Path) -> ProjectSpec:
+    """Reads and checks a project file; raises :class:`ProjectError` on the first problem."""
+    path = Path(path)
+    label = str(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ProjectError(f"{label}: invalid TOML: {exc}") from None
+    except FileNotFoundError:
+        raise ProjectError(f"{label}: no such project file") from None
+    except IsADirectoryError:
+        raise ProjectError(f"{label}: expected a project file (TOML), got a directory") from None
+    root = Table(label, "", data)
+    root.check_keys(TOP_LEVEL)
+    base = path.parent
+
+    ident = root.table("identification", {})
+    ident.check_keys(("name", "description", "phi", "correction", "n_samples", "seed"))
+    phi = ident.get("phi", "number", 0.95, what="a probability in (0, 1)")
+    if not 0.0 < phi < 1.0:
+        raise ident.error("phi", "a probability in (0, 1)", phi)
+    n_samples = ident.get("n_samples", "int", 200_000, what="a number of Monte Carlo samples >= 1000")
+    if n_samples < 1000:
+        raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
+
+    parameters = _parameters(root)
+    model = _model(root, base)
+    if model.predictions is not None:
+        if "sampling" in root.data:
+            raise ProjectError(f"{label}: sampling: not used when model.predictions gives the instances; "
+                               "remove [sampling]")
+        sampling = None
+    else:
+        sampling = _sampling(root, parameters)
+
+    measurements_file, inline, exclude = _measurements(root, base)
+    return ProjectSpec(
+        file=path, name=ident.get("name", "str", path.stem),
+        description=ident.get("description", "str", ""),
+        phi=phi, correction=ident.get("correction", "choice", "sidak", choices=CORRECTIONS),
+        n_samples=n_samples, seed=ident.get("seed", "int", 0),
+        parameters=parameters, sampling=sampling, model=model,
+        measurements_file=measurements_file, inline_sensors=inline, exclude=exclude,
+        uncertainty=_uncertainty(root), prognosis=_prognosis(root, base),
+    )
+
+
+def _parameters(root: Table) -> tuple[Parameter, ...]:
+    table = root.table("parameters")
+    if not table.data:
+        raise table.error("", "at least one [parameters.NAME] table with low and high", {})
+    result = []
+    for name in table.data:
+        t = table.table(name)
+        t.check_keys(("low", "high", "unit", "scale"))
+        low = t.get("low", "number", what="the lower bound of the domain, a number")
+        high = t.get("high", "number", what="the upper bound of the domain, a number")
+        try:
+            result.append(Parameter(name, low, high, unit=t.get("unit", "str", ""),
+                                    scale=t.get("scale", "choice", "linear", choices=("linear", "log"))))
+        except ValueError as exc:
+            raise ProjectError(f"{root.file}: parameters.{exc}") from None
+    return tuple(result)
+
+
+def _sampling(root: Table, parameters: tuple[Parameter, ...]) -> Sampling:
+    t = root.table("sampling")
+    t.check_keys(("method", "n", "points", "seed"))
+    method = t.get("method", "choice", choices=METHODS)
+    if method == "grid":
+        if "n" in t.data:
+            raise t.error("n", "no n for a grid (give points = {NAME = count})", t.data["n"])
+        points = t.table("points")
+        points.check_keys(tuple(p.name for p in parameters))
+        counts = {p.name: points.get(p.name, "int", what="a number of grid points >= 1") for p in parameters}
+        for name, count in counts.items():
+            if count < 1:
+                raise points.error(name, "a number of grid points >= 1", count)
+        return grid(parameters, counts)
+    if "points" in t.data:
+        raise t.error("points", f"no points for method = '{method}' (give n)", t.data["points"])
+    n = t.get("n", "int", what="the number of model instances, an integer >= 1")
+    if n < 1:
+        raise t.error("n", "the number of model instances, an integer >= 1", n)
+    seed = t.get("seed", "int", 0)
+    return (latin_hypercube if method == "lhs" else sobol)(parameters, n, seed=seed)
+
+
+def _function_ref(t: Table, key: str) -> str:
+    ref = t.get(key, "str", what="'module:function'")
+    module, sep, func = ref.partition(":")
+    if not sep or not module.strip() or not func.strip():
+        raise t.error(key, "'module:function' (e.g. 'girder:predict')", ref)
+    return ref
+
+
+def _model(root: Table, base: Path) -> ModelSpec:
+    t = root.table("model")
+    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size"))
+    nan = t.get("nan", "choice", "raise", choices=("raise", "falsify"))
+    batch_size = t.get("batch_size", "int", 10_000, what="a positive integer")
+    if batch_size < 1:
+        raise t.error("batch_size", "a positive integer", batch_size)
+    if "function" in t.data and "predictions" in t.data:
+        raise t.error("predictions", "either function or predictions, not both", t.data["predictions"])
+    if "function" not in t.data and "predictions" not in t.data:
+        raise t.error("function", "function = 'module:function', or predictions = 'file' with parameters = 'file'")
+    if "function" in t.data:
+        if "parameters" in t.data:
+            raise t.error("parameters", "no parameters file with function (the [sampling] gives them)",
+                          t.data["parameters"])
+        return ModelSpec(function=_function_ref(t, "function"), path=base / t.get("path", "str", "."),
+                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size)
+    for key in ("path", "options"):
+        if key in t.data:
+            raise t.error(key, f"no {key} with predictions (only with function)", t.data[key])
+    predictions = base / t.get("predictions", "str", what="a .npy, .csv or .parquet file")
+    parameters = base / t.get("parameters", "str", what="the parameters of the precomputed instances "
+                                                        "(a .npy, .csv or .parquet file)")
+    for key, file in (("predictions", predictions), ("parameters", parameters)):
+        if file.suffix.lower() not in (".npy", ".csv", ".parquet"):
+            raise t.error(key, "a .npy, .csv or .parquet file", t.data[key])
+    return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size)
+
+
+def _measurements(root: Table, base: Path) -> tuple[Path | None, tuple[Sensor, ...], tuple[str, ...]]:
+    t = root.table("measurements", {})
+    t.check_keys(("file", "sensors", "exclude"))
+    inline = tuple(t.tables("sensors")) + tuple(root.tables("sensors"))
+    if ("file" in t.data) == bool(inline):
+        raise t.error("file", "either file = 'measurements.csv' or inline [[measurements.sensors]] tables"
+                      + (", not both" if inline else ""))
+    exclude = t.get("exclude", "list", [], what="a list of sensor names")
+    if not all(isinstance(s, str) for s in exclude):
+        raise t.error("exclude", "a list of sensor names", exclude)
+    file = base / t.get("file", "str", what="a CSV file") if "file" in t.data else None
+    sensors = []
+    for s in inline:
+        s.check_keys(("name", "value", "type", "location", "unit"))
+        location = s.get("location", "number", None)
+        sensors.append(Sensor(s.get("name", "str", what="the sensor's name"), s.get("value", "number"),
+                              type=s.get("type", "str", ""), location=location, unit=s.get("unit", "str", "")))
+    return file, tuple(sensors), tuple(exclude)
+
+
+def distribution_values(t: Table, distribution: str, *, absolute_only: bool = False) -> tuple[float, float]:
+    """(mean, sd) of a normal or (low, high) of a uniform, with the keys of the other family refused."""
+    wanted = DISTRIBUTIONS[distribution]
+    for other in {k for v in DISTRIBUTIONS.values() for k in v} - set(wanted):
+        if other in t.data:
+            raise t.error(other, f"no {other} for a {distribution} distribution (give {' and '.join(wanted)})",
+                          t.data[other])
+    if distribution == "normal":
+        return t.get("mean", "number", 0.0), t.get("sd", "positive", what="a standard deviation > 0")
+    low = t.get("low", "number", what="the lower bound, a number")
+    high = t.get("high", "number", what="the upper bound, a number")
+    if not low < high:
+        raise t.error("high", f"a number above low ({low:g})", high)
+    return low, high
+
+
+def _uncertainty(root: Table) -> tuple[UncertaintySpec, ...]:
+    tables = root.tables("uncertainty")
+    if not tables:
+        raise root.error("uncertainty", "at least one [[uncertainty]] source (e.g. the sensors' noise)")
+    result, names = [], set()
+    for t in tables:
+        t.check_keys(("name", "kind", "distribution", "mean", "sd", "low", "high", "relative_to", "sensors"))
+        name = t.get("name", "str", t.key)
+        if name in names:
+            raise t.error("name", "a name no other [[uncertainty]] source has", name)
+        names.add(name)
+        distribution = t.get("distribution", "choice", choices=tuple(DISTRIBUTIONS))
+        sensors = t.data.get("sensors", "all")
+        if not (sensors == "all" or (isinstance(sensors, list) and sensors and all(isinstance(s, str) for s in sensors))
+                or (isinstance(sensors, dict) and list(sensors) == ["type"] and isinstance(sensors["type"], str))):
+            raise t.error("sensors", "\"all\", a list of sensor names or {type = \"...\"}", sensors)
+        result.append(UncertaintySpec(
+            key=t.key, name=name, kind=t.get("kind", "choice", choices=("model", "measurement")),
+            distribution=distribution, values=distribution_values(t, distribution),
+            relative_to=t.get("relative_to", "choice", "absolute", choices=("absolute", "measured")),
+            sensors=sensors,
+        ))
+    return tuple(result)
+
+
+def _prognosis(root: Table, base: Path) -> tuple[PrognosisSpec, ...]:
+    result = []
+    for t in root.tables("prognosis"):
+        t.check_keys(("name", "function", "path", "options", "unit", "distribution", "mean", "sd", "low", "high",
+                      "probability"))
+        uncertainty = None
+        if "distribution" in t.data:
+            distribution = t.get("distribution", "choice", choices=tuple(DISTRIBUTIONS))
+            uncertainty = (distribution, distribution_values(t, distribution))
+        else:
+            for key in ("mean", "sd", "low", "high"):
+                if key in t.data:
+                    raise t.error("distribution", f"'normal' or 'uniform' (since {key} is given)")
+        probability = t.get("probability", "number", 0.95, what="a probability in (0, 1)")
+        if not 0.0 < probability < 1.0:
+            raise t.error("probability", "a probability in (0, 1)", probability)
+        result.append(PrognosisSpec(
+            key=t.key, name=t.get("name", "str"), function=_function_ref(t, "function"),
+            path=base / t.get("path", "str", "."), options=t.get("options", "table", {}),
+            unit=t.get("unit", "str", ""), uncertainty=uncertainty, probability=probability,
+        ))
+    return tuple(result)

@@ -1,0 +1,128 @@
+"""The project's [[uncertainty]] sources as frozen ``scipy.stats`` distributions,
+combined per sensor into U_c (Eq. 4).
+
+A source covers all sensors, a list of them, or the sensors of one type; it
+adds nothing at the sensors it does not cover. So U_c is combined sensor by
+sensor with :func:`edmf_rs.combine` from the sources covering that sensor:
+exact (normal) when every source of the project is normal, otherwise Monte
+Carlo samples for every sensor, as ``combine`` does for sources covering all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from ..engine import intervals
+from ..engine.uncertainty import CombinedUncertainty, combine, relative_to_measured
+from .schema import ProjectError, Sensor, UncertaintySpec
+
+
+def frozen(distribution: str, values: tuple[float, float]):
+    """normal (mean, sd) or uniform (low, high) as a scalar frozen scipy.stats distribution."""
+    a, b = values
+    return stats.norm(a, b) if distribution == "normal" else stats.uniform(a, b - a)
+
+
+@dataclass(frozen=True)
+class UncertaintySource:
+    """One [[uncertainty]] source resolved against the sensors of the identification.
+
+    ``values`` are (mean, sd) of a normal or (low, high) of a uniform; with
+    ``relative_to = "measured"`` they are fractions of each sensor's measured
+    value. ``sensors`` are the indices of the sensors it covers.
+    """
+
+    name: str
+    kind: str
+    distribution: str
+    values: tuple[float, float]
+    relative_to: str
+    sensors: tuple[int, ...]
+
+    def base(self):
+        """The scalar frozen distribution of the value (or of the fraction of the measured value)."""
+        return frozen(self.distribution, self.values)
+
+    def per_sensor(self, measured: np.ndarray) -> list[tuple[int, object]]:
+        """(sensor index, scalar frozen distribution) for every covered sensor."""
+        if not self.sensors:
+            return []
+        if self.relative_to == "absolute":
+            return [(j, self.base()) for j in self.sensors]
+        vectorised = relative_to_measured(self.base(), measured[np.asarray(self.sensors)])
+        return list(zip(self.sensors, intervals.split(vectorised, len(self.sensors))))
+
+    def describe(self) -> str:
+        a, b = self.values
+        text = f"normal(mean {a:g}, sd {b:g})" if self.distribution == "normal" else f"uniform({a:g}, {b:g})"
+        return text + (" x measured value" if self.relative_to == "measured" else "")
+
+
+def resolve_sources(specs: tuple[UncertaintySpec, ...], sensors: tuple[Sensor, ...],
+                    kept: tuple[int, ...], label: str) -> tuple[UncertaintySource, ...]:
+    """Sources with their sensor selections checked against the measurements.
+
+    ``sensors`` are all sensors of the measurements; ``kept`` those the
+    identification uses (excluded sensors may be named, they are skipped).
+    """
+    position = {sensors[i].name: k for k, i in enumerate(kept)}
+    names = {s.name for s in sensors}
+    result = []
+    for spec in specs:
+        where = f"{label}: {spec.key}.sensors (source '{spec.name}')"
+        if spec.sensors == "all":
+            covered = tuple(range(len(kept)))
+        elif isinstance(spec.sensors, dict):
+            kind = spec.sensors["type"]
+            types = sorted({s.type for s in sensors if s.type})
+            if kind not in types:
+                raise ProjectError(f"{where}: expected a sensor type of the measurements "
+                                   f"({', '.join(types) or 'none given: add a type column'}), got {kind!r}")
+            covered = tuple(k for k, i in enumerate(kept) if sensors[i].type == kind)
+        else:
+            unknown = [n for n in spec.sensors if n not in names]
+            if unknown:
+                raise ProjectError(f"{where}: sensor '{unknown[0]}' is not in the measurements "
+                                   f"(expected one of: {', '.join(s.name for s in sensors)})")
+            covered = tuple(sorted({position[n] for n in spec.sensors if n in position}))
+        result.append(UncertaintySource(spec.name, spec.kind, spec.distribution, spec.values,
+                                        spec.relative_to, covered))
+    uncovered = sorted(set(range(len(kept))) - {j for src in result for j in src.sensors})
+    if uncovered:
+        name = sensors[kept[uncovered[0]]].name
+        raise ProjectError(f"{label}: uncertainty: sensor '{name}' is covered by no [[uncertainty]] source; "
+                           "expected at least one (e.g. its measurement noise), else its thresholds have zero width")
+    return tuple(result)
+
+
+def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray, *,
+                    n_samples: int = 200_000, seed: int = 0, streams=None) -> CombinedUncertainty:
+    """U_c per sensor: the sum of the model sources minus the measurement sources covering it.
+
+    Each sensor's Monte Carlo samples come from its own random stream, keyed by
+    ``streams[j]`` (the sensor's index among all sensors, so leaving a sensor
+    out does not change the others' samples).
+    """
+    n_m = len(measured)
+    model: list[list] = [[] for _ in range(n_m)]
+    measurement: list[list] = [[] for _ in range(n_m)]
+    for src in sources:
+        for j, dist in src.per_sensor(measured):
+            (model if src.kind == "model" else measurement)[j].append(dist)
+    streams = range(n_m) if streams is None else streams
+    rngs = [np.random.default_rng([seed, int(k)]) for k in streams]
+    per_sensor = [combine(model=model[j], measurement=measurement[j], n_sensors=1, n_samples=n_samples,
+                          seed=rngs[j]) for j in range(n_m)]
+    mean = np.array([c.mean[0] for c in per_sensor])
+    std = np.array([c.std[0] for c in per_sensor])
+    if all(c.exact for c in per_sensor):
+        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=std))
+    # One non-normal source makes U_c Monte Carlo at every sensor, as in combine().
+    samples = np.column_stack([
+        c.samples[:, 0] if not c.exact else rngs[j].normal(mean[j], std[j], n_samples)
+        for j, c in enumerate(per_sensor)
+    ])
+    return CombinedUncertainty(n_m, samples=samples)
