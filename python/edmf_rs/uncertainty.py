@@ -19,24 +19,69 @@ from ._validate import finite_vector, positive_int
 
 @dataclass(frozen=True, eq=False)
 class CombinedUncertainty:
-    """U_c per sensor: exact (``distribution``, a vectorised normal) when every
-    source is normal, otherwise Monte Carlo ``samples`` of shape (n_samples, n_m)."""
+    """U_c per sensor (Eq. 4).
+
+    ``distribution`` (a vectorised normal) when every source at every sensor is
+    normal; otherwise Monte Carlo ``samples`` of shape (n_samples, n_m) for
+    every sensor, and per sensor the exact ``marginals`` where known: ``(sign,
+    frozen distribution)`` when the sensor's sources are all normal or it has
+    a single source, else ``None``. Threshold bounds use the exact marginal
+    where there is one and the samples elsewhere. ``symmetric`` marks sensors
+    whose every source is symmetric about its mean (so U_c is), ``gaussian``
+    those whose every source is normal. ``seed`` is the seed the samples were
+    drawn with (None when a Generator was passed).
+    """
 
     n_sensors: int
     distribution: object | None = None
     samples: np.ndarray | None = None
+    marginals: tuple | None = None
+    symmetric: np.ndarray | None = None
+    gaussian: np.ndarray | None = None
+    seed: object = None
+    sensor_names: tuple | None = None
 
     @property
     def exact(self) -> bool:
+        """Every sensor's U_c is known in closed form (normal)."""
         return self.distribution is not None
 
     @property
+    def exact_sensors(self) -> np.ndarray:
+        """Per sensor: its thresholds come from a closed form, not from samples."""
+        if self.exact:
+            return np.ones(self.n_sensors, dtype=bool)
+        if self.marginals is None:
+            return np.zeros(self.n_sensors, dtype=bool)
+        return np.array([m is not None for m in self.marginals], dtype=bool)
+
+    @property
+    def all_gaussian(self) -> bool:
+        """U_c is normal at every sensor (Sidak's inequality then holds whatever the correlation)."""
+        return self.exact or (self.gaussian is not None and bool(np.all(self.gaussian)))
+
+    @property
     def mean(self) -> np.ndarray:
-        return np.asarray(self.distribution.mean()) if self.exact else self.samples.mean(axis=0)
+        if self.exact:
+            return np.asarray(self.distribution.mean())
+        mean = self.samples.mean(axis=0)
+        for j, m in enumerate(self.marginals or ()):
+            if m is not None:
+                mean[j] = m[0] * float(m[1].mean())
+        return mean
 
     @property
     def std(self) -> np.ndarray:
-        return np.asarray(self.distribution.std()) if self.exact else self.samples.std(axis=0, ddof=1)
+        if self.exact:
+            return np.asarray(self.distribution.std())
+        std = self.samples.std(axis=0, ddof=1)
+        for j, m in enumerate(self.marginals or ()):
+            if m is not None:
+                std[j] = float(m[1].std())
+        return std
+
+    def sensor_name(self, j: int) -> str:
+        return str(self.sensor_names[j]) if self.sensor_names is not None else str(j)
 
 
 def _source_dists(source, name: str) -> tuple[list | None, object | None, int | None]:
@@ -57,7 +102,7 @@ def _source_dists(source, name: str) -> tuple[list | None, object | None, int | 
     )
 
 
-def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
+def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
             n_sensors: int | None = None) -> CombinedUncertainty:
     """Combine uncertainty sources into U_c per sensor (Eq. 4).
 
@@ -66,6 +111,35 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
     the n_m sensors) or a list of n_m scalar frozen distributions. Sources are
     independent of each other at a sensor; how sensors depend on each other does
     not matter to the thresholds, which use each sensor's marginal only.
+
+    A sensor whose sources are all normal keeps its exact normal U_c, and a
+    sensor with a single source keeps that source's distribution, even when
+    other sensors need Monte Carlo samples.
+
+    Parameters
+    ----------
+    model, measurement : frozen distribution or list of sources
+    n_samples : Monte Carlo samples per sensor when some source is not normal
+    seed : seed of the Monte Carlo draws (default 0, so two identical calls give
+        identical samples and bounds); recorded on the result
+    n_sensors : n_m, needed when every source is scalar
+
+    Returns
+    -------
+    CombinedUncertainty
+
+    Raises
+    ------
+    TypeError, ValueError
+        Sources that are not frozen distributions, disagree on n_m, or give
+        non-finite samples.
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> c = combine(model=stats.uniform(-1, 2), measurement=stats.norm(0, 1), n_sensors=3, n_samples=2000)
+    >>> c.exact, c.seed, c.samples.shape, bool(c.symmetric.all())
+    (False, 0, (2000, 3), True)
     """
     sources = []
     for sign, group, name in ((1.0, model, "model"), (-1.0, measurement, "measurement")):
@@ -102,19 +176,23 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
             )
 
     per_sensor = [s[1] or intervals.split(s[2], n_m) for s in sources]
-    if all(d.dist.name == "norm" for group in per_sensor for d in group):
-        mean = np.zeros(n_m)
-        var = np.zeros(n_m)
-        for (sign, *_), group in zip(sources, per_sensor):
-            loc, scale = np.array([_normal_parameters(d) for d in group]).T
-            mean += sign * loc
-            var += scale**2
-        if not np.all(var > 0):
-            i = int(np.flatnonzero(~(var > 0))[0])
-            raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
-        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)))
+    normal = [all(group[j].dist.name == "norm" for group in per_sensor) for j in range(n_m)]
+    if all(normal):
+        mean, sd = _normal_sum(sources, per_sensor, range(n_m))
+        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=sd), seed=_seed_record(seed),
+                                   gaussian=np.ones(n_m, dtype=bool), symmetric=np.ones(n_m, dtype=bool))
 
     n_samples = positive_int(n_samples, "n_samples")
+    marginals = []
+    for j in range(n_m):
+        if normal[j]:
+            mean, sd = _normal_sum(sources, per_sensor, [j])
+            marginals.append((1.0, stats.norm(mean[0], sd[0])))
+        elif len(sources) == 1:
+            marginals.append((sources[0][0], per_sensor[0][j]))
+        else:
+            marginals.append(None)
+    symmetric = np.array([all(intervals.is_symmetric(group[j]) for group in per_sensor) for j in range(n_m)])
     rng = np.random.default_rng(seed)
     samples = np.zeros((n_samples, n_m))
     for sign, group, dist, _, name in sources:
@@ -125,7 +203,30 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
         if not np.all(np.isfinite(draws)):
             raise ValueError(f"{name}: its distribution gave non-finite samples (check its parameters)")
         samples += sign * draws
-    return CombinedUncertainty(n_m, samples=samples)
+    return CombinedUncertainty(n_m, samples=samples, marginals=tuple(marginals), symmetric=symmetric,
+                               gaussian=np.array(normal), seed=_seed_record(seed))
+
+
+def _seed_record(seed):
+    """The seed as recorded on the result: an int (or list of ints), None for a Generator."""
+    if seed is None or isinstance(seed, (np.random.Generator, np.random.BitGenerator, np.random.SeedSequence)):
+        return None
+    return seed
+
+
+def _normal_sum(sources, per_sensor, sensors) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and sd of sum(model) - sum(measurement) at ``sensors``, every source normal."""
+    sensors = list(sensors)
+    mean = np.zeros(len(sensors))
+    var = np.zeros(len(sensors))
+    for (sign, *_), group in zip(sources, per_sensor):
+        loc, scale = np.array([_normal_parameters(group[j]) for j in sensors]).reshape(-1, 2).T
+        mean += sign * loc
+        var += scale**2
+    if not np.all(var > 0):
+        i = sensors[int(np.flatnonzero(~(var > 0))[0])]
+        raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
+    return mean, np.sqrt(var)
 
 
 def _normal_parameters(dist) -> tuple[float, float]:
