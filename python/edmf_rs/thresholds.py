@@ -247,6 +247,7 @@ def _monte_carlo_bounds(combined, phi, correction, confidence, estimator, seed) 
     se_low, se_high = np.zeros(n_m), np.zeros(n_m)
     method = []
     mc = [j for j in range(n_m) if marginals[j] is None]
+    mc_intervals.warn_thin_tails([combined.sensor_name(j) for j in mc], p, n, confidence, stacklevel=4)
     if estimator == "shortest" and mc:
         sub = np.ascontiguousarray(samples[:, mc])
         low[mc], high[mc] = _core.shortest_intervals(sub, p)
@@ -265,7 +266,6 @@ def _monte_carlo_bounds(combined, phi, correction, confidence, estimator, seed) 
                                              rng=np.random.default_rng([int(root), j]))
             low[j], high[j], se_low[j], se_high[j] = b.low, b.high, b.se_low, b.se_high
             method.append(b.method)
-    mc_intervals.warn_thin_tails([combined.sensor_name(j) for j in mc], p, n, confidence)
     gaussian = combined.gaussian is not None and bool(np.all(combined.gaussian))
     return Thresholds(low, high, phi=phi, probability=p, correction=correction, gaussian=gaussian,
                       se_low=se_low, se_high=se_high, method=tuple(method),
