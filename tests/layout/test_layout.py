@@ -7,8 +7,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 import edmf_rs
 
 PACKAGE = Path(edmf_rs.__file__).parent

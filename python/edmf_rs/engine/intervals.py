@@ -34,6 +34,26 @@ def split(dist, n: int) -> list:
     return [dist.dist(*(a[i] for a in args), **{k: v[i] for k, v in kwds.items()}) for i in range(n)]
 
 
+def is_symmetric(dist) -> bool:
+    """True when a scalar frozen distribution is symmetric about its median:
+    every member of a symmetric family, else ``ppf(q) + ppf(1 - q) = 2 median``
+    checked at several q (e.g. a triangular with its mode midway, a normal
+    truncated symmetrically about its mean).
+
+    Examples
+    --------
+    >>> is_symmetric(stats.triang(0.5)), is_symmetric(stats.triang(0.2)), is_symmetric(stats.lognorm(0.3))
+    (True, False, False)
+    """
+    if dist.dist.name in SYMMETRIC_UNIMODAL:
+        return True
+    q = np.array([1e-4, 1e-3, 0.01, 0.05, 0.1, 0.2, 0.3, 0.4])
+    lo, hi, mid = dist.ppf(q), dist.ppf(1.0 - q), dist.ppf(0.5)
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.isfinite(mid)):
+        return False
+    return bool(np.all(np.abs(lo + hi - 2.0 * mid) <= 1e-9 * np.maximum(hi - lo, 1e-300)))
+
+
 def shortest_interval(dist, probability: float) -> tuple[float, float]:
     """Shortest interval holding ``probability`` of a scalar frozen distribution."""
     if dist.dist.name in SYMMETRIC_UNIMODAL:

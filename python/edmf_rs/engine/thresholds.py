@@ -2,8 +2,12 @@
 
 Per sensor, the shortest interval of the combined uncertainty U_c holding the
 per-sensor probability (Eq. 5). With the Sidak correction that probability is
-``phi**(1/n_m)``, so the hyper-rectangle of all sensors holds at least ``phi``
-whatever the dependencies between sensors (Eq. 7).
+``phi**(1/n_m)``. What the hyper-rectangle of all sensors then holds (Eq. 7)
+depends on U_c: for Gaussian U_c, Sidak's inequality (Sidak 1967) gives at
+least ``phi`` whatever the correlations; for other U_c only Bonferroni's
+inequality holds for every dependence, ``1 - n_m (1 - p)`` (0.9487 for
+phi = 0.95, n_m = 50), and ``correction="bonferroni"`` restores ``phi``.
+:attr:`Thresholds.guaranteed_probability` gives the figure for a result.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _core
-from . import intervals
+from . import intervals, mc_intervals
 from ._validate import finite_vector, positive_int, probability
 
 CORRECTIONS = ("sidak", "bonferroni", "none")
@@ -25,6 +29,19 @@ class Thresholds:
 
     ``phi``, ``probability`` (per sensor) and ``correction`` record how the
     bounds were computed; they are ``None`` for bounds given by hand.
+    ``gaussian`` says whether U_c is normal at every sensor (it decides what
+    the correction guarantees, see :attr:`guaranteed_probability`). Bounds
+    from Monte Carlo samples also carry each bound's Monte Carlo standard
+    error ``se_low``/``se_high`` (0 where the bound is exact), the estimator
+    per sensor ``method`` ("exact", "central" or "shortest"), the
+    ``confidence`` with which each Monte Carlo interval holds at least
+    ``probability``, and the ``n_samples`` and ``seed`` of the draws.
+
+    Examples
+    --------
+    >>> t = Thresholds([-1.0, -2.0], [1.0, 2.0])
+    >>> t.width.tolist(), t.guaranteed_probability
+    ([2.0, 4.0], None)
     """
 
     low: np.ndarray
@@ -32,6 +49,13 @@ class Thresholds:
     phi: float | None = None
     probability: float | None = None
     correction: str | None = None
+    gaussian: bool | None = None
+    se_low: np.ndarray | None = None
+    se_high: np.ndarray | None = None
+    method: tuple | None = None
+    confidence: float | None = None
+    n_samples: int | None = None
+    seed: object = None
 
     def __post_init__(self):
         low = finite_vector(self.low, "low")
@@ -42,6 +66,10 @@ class Thresholds:
             raise ValueError(f"low: expected low <= high, got low={low[i]} > high={high[i]} at sensor {i}")
         object.__setattr__(self, "low", low)
         object.__setattr__(self, "high", high)
+        for name in ("se_low", "se_high"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, np.asarray(value, dtype=np.float64).reshape(low.shape))
 
     @property
     def n_sensors(self) -> int:
@@ -50,6 +78,46 @@ class Thresholds:
     @property
     def width(self) -> np.ndarray:
         return self.high - self.low
+
+    @property
+    def monte_carlo(self) -> bool:
+        """Some bound was estimated from Monte Carlo samples."""
+        return self.method is not None and any(m != "exact" for m in self.method)
+
+    @property
+    def guaranteed_probability(self) -> float | None:
+        """Joint probability that the right instance's residuals all lie within
+        the bounds, guaranteed whatever the dependence between sensors.
+
+        Gaussian U_c: Sidak's inequality gives ``p ** n_m`` (= phi with the Sidak
+        correction, Eq. 7). Otherwise only Bonferroni's inequality holds for
+        every dependence: ``1 - n_m (1 - p)`` (0.9487 for phi = 0.95 with the
+        Sidak correction at n_m = 50; phi with ``correction="bonferroni"``).
+        """
+        if self.probability is None:
+            return None
+        n, p = self.n_sensors, self.probability
+        if self.gaussian:
+            return p**n
+        return max(0.0, 1.0 - n * (1.0 - p))
+
+    def guarantee(self) -> str:
+        """One line saying what the bounds guarantee (printed with project results)."""
+        if self.probability is None:
+            return "bounds given by hand: no probability is attached to them"
+        g = self.guaranteed_probability
+        if self.gaussian:
+            text = (f"joint probability >= {g:.4f} whatever the correlation (Sidak's inequality, exact for "
+                    "Gaussian combined uncertainty)")
+        else:
+            text = (f"joint probability >= {g:.4f} whatever the dependence (Bonferroni bound "
+                    f"1 - n_m (1 - p), non-Gaussian combined uncertainty)")
+            if self.correction == "sidak":
+                text += f"; {self.probability ** self.n_sensors:.4f} if the sensors' errors are independent"
+        if self.monte_carlo:
+            text += (f"; each Monte Carlo interval holds at least p = {self.probability:.6g} "
+                     f"with confidence {self.confidence:g} ({self.n_samples:,} samples, seed {self.seed})")
+        return text
 
     def __repr__(self) -> str:
         how = f", phi={self.phi}, correction={self.correction!r}" if self.phi is not None else ""
@@ -76,29 +144,73 @@ def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") ->
     return p
 
 
-def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak") -> Thresholds:
-    """Threshold bounds from the combined uncertainty of every sensor.
+def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
+                     confidence: float = mc_intervals.DEFAULT_CONFIDENCE, estimator: str = "conservative",
+                     seed=None) -> Thresholds:
+    """Threshold bounds from the combined uncertainty of every sensor (Eqs. 5-6).
 
-    ``combined`` is one of:
+    Parameters
+    ----------
+    combined
+        One of: the result of :func:`edmf_rs.combine` (exact bounds where a
+        sensor's U_c is known in closed form, Monte Carlo elsewhere); a
+        sequence of n_m frozen ``scipy.stats`` continuous distributions, or one
+        vectorised over the n_m sensors (exact); a 2-D array of Monte Carlo
+        samples of U_c, shape (n_samples, n_m).
+    phi : target identification probability
+    correction : "sidak" (Eq. 5), "bonferroni" (holds phi for any dependence) or "none"
+    confidence : probability that each Monte Carlo interval holds at least the
+        per-sensor probability (see :mod:`edmf_rs.mc_intervals`)
+    estimator : "conservative" (default) or "shortest": the plain shortest
+        window of ceil(pN) samples, computed in Rust, which holds p only on average
+    seed : seed of the bootstrap standard errors (default: the samples' seed, else 0)
 
-    - a 2-D array of Monte Carlo samples of U_c, shape (n_samples, n_m): the
-      bounds are the shortest interval holding the per-sensor probability of
-      each column's samples (computed in Rust, in parallel over sensors);
-    - a sequence of n_m frozen ``scipy.stats`` continuous distributions, or one
-      frozen distribution vectorised over the n_m sensors;
-    - the result of :func:`edmf_rs.combine`.
+    Returns
+    -------
+    Thresholds
+
+    Raises
+    ------
+    ValueError, TypeError
+        Bad phi/correction, or too few samples (the message says how many are needed).
+
+    Warns
+    -----
+    UserWarning
+        Monte Carlo sensors with fewer than ~100 samples per tail.
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> t = threshold_bounds(stats.norm([0.0, 1.0], 1.0), phi=0.95)
+    >>> round(float(t.high[0]), 4), round(t.guaranteed_probability, 4)
+    (2.2365, 0.95)
     """
     from .uncertainty import CombinedUncertainty
 
     phi = probability(phi, "phi")
+    confidence = probability(confidence, "confidence")
+    if estimator not in ("conservative", "shortest"):
+        raise ValueError(f"estimator: expected 'conservative' or 'shortest', got {estimator!r}")
     if isinstance(combined, CombinedUncertainty):
-        combined = combined.samples if combined.samples is not None else combined.distribution
+        if combined.exact:
+            combined = combined.distribution
+        else:
+            return _monte_carlo_bounds(combined, phi, correction, confidence, estimator, seed)
     if intervals.is_frozen(combined):
         shape = intervals.batch_shape(combined)
         if len(shape) != 1:
             raise ValueError(
                 f"combined: expected a distribution vectorised over the sensors (1-D), got batch shape {shape}"
             )
+        p = sensor_probability(phi, shape[0], correction)
+        if combined.dist.name in intervals.SYMMETRIC_UNIMODAL:
+            # Eq. 6 for every sensor at once; elementwise the same ppf as the per-sensor call.
+            tail = 0.5 * (1.0 - p)
+            low = np.broadcast_to(combined.ppf(tail), shape).astype(np.float64)
+            high = np.broadcast_to(combined.ppf(1.0 - tail), shape).astype(np.float64)
+            return Thresholds(low, high, phi=phi, probability=p, correction=correction,
+                              gaussian=combined.dist.name == "norm", method=("exact",) * shape[0])
         combined = intervals.split(combined, shape[0])
     if isinstance(combined, (list, tuple)) and combined and all(map(intervals.is_frozen, combined)):
         for i, d in enumerate(combined):
@@ -109,11 +221,57 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak") -> 
                 )
         p = sensor_probability(phi, len(combined), correction)
         low, high = intervals.shortest_intervals(combined, p)
-    else:
-        samples = _samples(combined)
-        p = sensor_probability(phi, samples.shape[1], correction)
+        return Thresholds(low, high, phi=phi, probability=p, correction=correction,
+                          gaussian=all(d.dist.name == "norm" for d in combined), method=("exact",) * len(combined))
+    samples = _samples(combined)
+    n, n_m = samples.shape
+    p = sensor_probability(phi, n_m, correction)
+    if estimator == "shortest":
         low, high = _core.shortest_intervals(samples, p)
-    return Thresholds(low, high, phi=phi, probability=p, correction=correction)
+        return Thresholds(low, high, phi=phi, probability=p, correction=correction, gaussian=False,
+                          method=("shortest-plain",) * n_m, n_samples=n)
+    from .uncertainty import CombinedUncertainty as _C
+
+    return _monte_carlo_bounds(_C(n_m, samples=samples, symmetric=np.zeros(n_m, dtype=bool),
+                                  gaussian=np.zeros(n_m, dtype=bool)),
+                               phi, correction, confidence, estimator, seed)
+
+
+def _monte_carlo_bounds(combined, phi, correction, confidence, estimator, seed) -> Thresholds:
+    """Exact bounds at the sensors with a closed-form marginal, Monte Carlo bounds elsewhere."""
+    samples = combined.samples
+    n, n_m = samples.shape
+    p = sensor_probability(phi, n_m, correction)
+    marginals = combined.marginals or (None,) * n_m
+    symmetric = combined.symmetric if combined.symmetric is not None else np.zeros(n_m, dtype=bool)
+    low, high = np.empty(n_m), np.empty(n_m)
+    se_low, se_high = np.zeros(n_m), np.zeros(n_m)
+    method = []
+    mc = [j for j in range(n_m) if marginals[j] is None]
+    mc_intervals.warn_thin_tails([combined.sensor_name(j) for j in mc], p, n, confidence, stacklevel=4)
+    if estimator == "shortest" and mc:
+        sub = np.ascontiguousarray(samples[:, mc])
+        low[mc], high[mc] = _core.shortest_intervals(sub, p)
+    root = seed if seed is not None else (combined.seed if isinstance(combined.seed, int) else 0)
+    for j in range(n_m):
+        if marginals[j] is not None:
+            sign, dist = marginals[j]
+            a, b = intervals.shortest_interval(dist, p)
+            low[j], high[j] = (a, b) if sign > 0 else (-b, -a)
+            method.append("exact")
+        elif estimator == "shortest":
+            method.append("shortest-plain")
+        else:
+            column = np.sort(samples[:, j])
+            b = mc_intervals.sample_interval(column, p, symmetric=bool(symmetric[j]), confidence=confidence,
+                                             rng=np.random.default_rng([int(root), j]))
+            low[j], high[j], se_low[j], se_high[j] = b.low, b.high, b.se_low, b.se_high
+            method.append(b.method)
+    gaussian = combined.gaussian is not None and bool(np.all(combined.gaussian))
+    return Thresholds(low, high, phi=phi, probability=p, correction=correction, gaussian=gaussian,
+                      se_low=se_low, se_high=se_high, method=tuple(method),
+                      confidence=confidence if estimator == "conservative" else None,
+                      n_samples=n, seed=combined.seed)
 
 
 def _samples(combined) -> np.ndarray:

@@ -7,6 +7,7 @@ Sources are ordinary frozen ``scipy.stats`` distributions.
 
 from __future__ import annotations
 
+import difflib
 import warnings
 from dataclasses import dataclass
 
@@ -19,24 +20,69 @@ from ._validate import finite_vector, positive_int
 
 @dataclass(frozen=True, eq=False)
 class CombinedUncertainty:
-    """U_c per sensor: exact (``distribution``, a vectorised normal) when every
-    source is normal, otherwise Monte Carlo ``samples`` of shape (n_samples, n_m)."""
+    """U_c per sensor (Eq. 4).
+
+    ``distribution`` (a vectorised normal) when every source at every sensor is
+    normal; otherwise Monte Carlo ``samples`` of shape (n_samples, n_m) for
+    every sensor, and per sensor the exact ``marginals`` where known: ``(sign,
+    frozen distribution)`` when the sensor's sources are all normal or it has
+    a single source, else ``None``. Threshold bounds use the exact marginal
+    where there is one and the samples elsewhere. ``symmetric`` marks sensors
+    whose every source is symmetric about its mean (so U_c is), ``gaussian``
+    those whose every source is normal. ``seed`` is the seed the samples were
+    drawn with (None when a Generator was passed).
+    """
 
     n_sensors: int
     distribution: object | None = None
     samples: np.ndarray | None = None
+    marginals: tuple | None = None
+    symmetric: np.ndarray | None = None
+    gaussian: np.ndarray | None = None
+    seed: object = None
+    sensor_names: tuple | None = None
 
     @property
     def exact(self) -> bool:
+        """Every sensor's U_c is known in closed form (normal)."""
         return self.distribution is not None
 
     @property
+    def exact_sensors(self) -> np.ndarray:
+        """Per sensor: its thresholds come from a closed form, not from samples."""
+        if self.exact:
+            return np.ones(self.n_sensors, dtype=bool)
+        if self.marginals is None:
+            return np.zeros(self.n_sensors, dtype=bool)
+        return np.array([m is not None for m in self.marginals], dtype=bool)
+
+    @property
+    def all_gaussian(self) -> bool:
+        """U_c is normal at every sensor (Sidak's inequality then holds whatever the correlation)."""
+        return self.exact or (self.gaussian is not None and bool(np.all(self.gaussian)))
+
+    @property
     def mean(self) -> np.ndarray:
-        return np.asarray(self.distribution.mean()) if self.exact else self.samples.mean(axis=0)
+        if self.exact:
+            return np.asarray(self.distribution.mean())
+        mean = self.samples.mean(axis=0)
+        for j, m in enumerate(self.marginals or ()):
+            if m is not None:
+                mean[j] = m[0] * float(m[1].mean())
+        return mean
 
     @property
     def std(self) -> np.ndarray:
-        return np.asarray(self.distribution.std()) if self.exact else self.samples.std(axis=0, ddof=1)
+        if self.exact:
+            return np.asarray(self.distribution.std())
+        std = self.samples.std(axis=0, ddof=1)
+        for j, m in enumerate(self.marginals or ()):
+            if m is not None:
+                std[j] = float(m[1].std())
+        return std
+
+    def sensor_name(self, j: int) -> str:
+        return str(self.sensor_names[j]) if self.sensor_names is not None else str(j)
 
 
 def _source_dists(source, name: str) -> tuple[list | None, object | None, int | None]:
@@ -57,7 +103,7 @@ def _source_dists(source, name: str) -> tuple[list | None, object | None, int | 
     )
 
 
-def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
+def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
             n_sensors: int | None = None) -> CombinedUncertainty:
     """Combine uncertainty sources into U_c per sensor (Eq. 4).
 
@@ -66,6 +112,35 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
     the n_m sensors) or a list of n_m scalar frozen distributions. Sources are
     independent of each other at a sensor; how sensors depend on each other does
     not matter to the thresholds, which use each sensor's marginal only.
+
+    A sensor whose sources are all normal keeps its exact normal U_c, and a
+    sensor with a single source keeps that source's distribution, even when
+    other sensors need Monte Carlo samples.
+
+    Parameters
+    ----------
+    model, measurement : frozen distribution or list of sources
+    n_samples : Monte Carlo samples per sensor when some source is not normal
+    seed : seed of the Monte Carlo draws (default 0, so two identical calls give
+        identical samples and bounds); recorded on the result
+    n_sensors : n_m, needed when every source is scalar
+
+    Returns
+    -------
+    CombinedUncertainty
+
+    Raises
+    ------
+    TypeError, ValueError
+        Sources that are not frozen distributions, disagree on n_m, or give
+        non-finite samples.
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> c = combine(model=stats.uniform(-1, 2), measurement=stats.norm(0, 1), n_sensors=3, n_samples=2000)
+    >>> c.exact, c.seed, c.samples.shape, bool(c.symmetric.all())
+    (False, 0, (2000, 3), True)
     """
     sources = []
     for sign, group, name in ((1.0, model, "model"), (-1.0, measurement, "measurement")):
@@ -102,19 +177,23 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
             )
 
     per_sensor = [s[1] or intervals.split(s[2], n_m) for s in sources]
-    if all(d.dist.name == "norm" for group in per_sensor for d in group):
-        mean = np.zeros(n_m)
-        var = np.zeros(n_m)
-        for (sign, *_), group in zip(sources, per_sensor):
-            loc, scale = np.array([_normal_parameters(d) for d in group]).T
-            mean += sign * loc
-            var += scale**2
-        if not np.all(var > 0):
-            i = int(np.flatnonzero(~(var > 0))[0])
-            raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
-        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)))
+    normal = [all(group[j].dist.name == "norm" for group in per_sensor) for j in range(n_m)]
+    if all(normal):
+        mean, sd = _normal_sum(sources, per_sensor, range(n_m))
+        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=sd), seed=_seed_record(seed),
+                                   gaussian=np.ones(n_m, dtype=bool), symmetric=np.ones(n_m, dtype=bool))
 
     n_samples = positive_int(n_samples, "n_samples")
+    marginals = []
+    for j in range(n_m):
+        if normal[j]:
+            mean, sd = _normal_sum(sources, per_sensor, [j])
+            marginals.append((1.0, stats.norm(mean[0], sd[0])))
+        elif len(sources) == 1:
+            marginals.append((sources[0][0], per_sensor[0][j]))
+        else:
+            marginals.append(None)
+    symmetric = np.array([all(intervals.is_symmetric(group[j]) for group in per_sensor) for j in range(n_m)])
     rng = np.random.default_rng(seed)
     samples = np.zeros((n_samples, n_m))
     for sign, group, dist, _, name in sources:
@@ -125,7 +204,30 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=None,
         if not np.all(np.isfinite(draws)):
             raise ValueError(f"{name}: its distribution gave non-finite samples (check its parameters)")
         samples += sign * draws
-    return CombinedUncertainty(n_m, samples=samples)
+    return CombinedUncertainty(n_m, samples=samples, marginals=tuple(marginals), symmetric=symmetric,
+                               gaussian=np.array(normal), seed=_seed_record(seed))
+
+
+def _seed_record(seed):
+    """The seed as recorded on the result: an int (or list of ints), None for a Generator."""
+    if seed is None or isinstance(seed, (np.random.Generator, np.random.BitGenerator, np.random.SeedSequence)):
+        return None
+    return seed
+
+
+def _normal_sum(sources, per_sensor, sensors) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and sd of sum(model) - sum(measurement) at ``sensors``, every source normal."""
+    sensors = list(sensors)
+    mean = np.zeros(len(sensors))
+    var = np.zeros(len(sensors))
+    for (sign, *_), group in zip(sources, per_sensor):
+        loc, scale = np.array([_normal_parameters(group[j]) for j in sensors]).reshape(-1, 2).T
+        mean += sign * loc
+        var += scale**2
+    if not np.all(var > 0):
+        i = sensors[int(np.flatnonzero(~(var > 0))[0])]
+        raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
+    return mean, np.sqrt(var)
 
 
 def _normal_parameters(dist) -> tuple[float, float]:
@@ -137,6 +239,114 @@ def _normal_parameters(dist) -> tuple[float, float]:
     if not (np.isfinite(loc) and np.isfinite(scale) and scale >= 0):
         raise ValueError(f"model, measurement: a normal source needs a finite mean and sd >= 0, got {loc}, {scale}")
     return loc, scale
+
+
+#: Shorthand families and their parameters (besides any scipy.stats name with its own parameters).
+SHORTHANDS = {
+    "normal": ("mean", "sd"),
+    "uniform": ("low", "high"),
+    "triangular": ("low", "mode", "high"),
+    "truncated_normal": ("mean", "sd", "low", "high"),
+}
+
+
+def accepted_parameters(name: str) -> tuple[str, ...]:
+    """Parameter names of a shorthand or of a continuous scipy.stats distribution.
+
+    Examples
+    --------
+    >>> accepted_parameters("lognorm"), accepted_parameters("triangular")
+    (('s', 'loc', 'scale'), ('low', 'mode', 'high'))
+    """
+    if name in SHORTHANDS:
+        return SHORTHANDS[name]
+    family = getattr(stats, name, None)
+    if not isinstance(family, stats.rv_continuous):
+        close = difflib.get_close_matches(name, [*SHORTHANDS, *_scipy_names()], n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        raise ValueError(
+            f"distribution: expected {', '.join(map(repr, SHORTHANDS))} or the name of a continuous "
+            f"scipy.stats distribution (e.g. 'lognorm', 't', 'gamma'), got {name!r}{hint}"
+        )
+    shapes = tuple(x.strip() for x in family.shapes.split(",")) if family.shapes else ()
+    return (*shapes, "loc", "scale")
+
+
+def _scipy_names() -> list[str]:
+    return [n for n in dir(stats) if isinstance(getattr(stats, n, None), stats.rv_continuous)]
+
+
+def distribution(name: str, params: dict):
+    """A scalar frozen distribution from its name and parameters, checked.
+
+    ``name`` is a shorthand (``normal``: mean, sd; ``uniform``: low, high;
+    ``triangular``: low, mode, high; ``truncated_normal``: mean, sd, low, high,
+    the normal's mean and sd before truncation to [low, high]) or any
+    continuous ``scipy.stats`` distribution with its own parameter names
+    (``lognorm``: s, loc, scale). Every shape parameter must be given; loc
+    (default 0) and scale (default 1) are optional, as in scipy; normal's mean
+    defaults to 0.
+
+    Parameters
+    ----------
+    name : str
+    params : dict of parameter name -> number
+
+    Returns
+    -------
+    A frozen ``scipy.stats`` distribution.
+
+    Raises
+    ------
+    ValueError
+        Unknown name, unknown or missing parameter (the message lists the
+        accepted names), or values the family does not accept.
+
+    Examples
+    --------
+    >>> float(distribution("lognorm", {"s": 0.25, "scale": 1.0}).median())
+    1.0
+    >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()), 12)  # (a²+b²+c²-ab-ac-bc)/18
+    0.16666666666666666
+    """
+    accepted = accepted_parameters(name)
+    listed = ", ".join(accepted)
+    for key, value in params.items():
+        if key not in accepted:
+            raise ValueError(f"params: unknown parameter {key!r} for {name} (accepted: {listed})")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+            raise ValueError(f"params: {key} of {name}: expected a number, got {value!r}")
+    optional = {"loc", "scale"} | ({"mean"} if name in ("normal", "truncated_normal") else set())
+    missing = [k for k in accepted if k not in params and k not in optional]
+    if missing:
+        raise ValueError(f"params: {name} needs {', '.join(missing)} (accepted: {listed})")
+    v = {k: float(x) for k, x in params.items()}
+    if name == "normal":
+        dist, ok = stats.norm(v.get("mean", 0.0), v["sd"]), v["sd"] > 0
+    elif name == "uniform":
+        dist, ok = stats.uniform(v["low"], v["high"] - v["low"]), v["low"] < v["high"]
+    elif name == "triangular":
+        lo, mode, hi = v["low"], v["mode"], v["high"]
+        ok = lo < hi and lo <= mode <= hi
+        dist = stats.triang((mode - lo) / (hi - lo) if ok else 0.5, loc=lo, scale=hi - lo)
+    elif name == "truncated_normal":
+        mean, sd, lo, hi = v.get("mean", 0.0), v["sd"], v["low"], v["high"]
+        ok = sd > 0 and lo < hi
+        dist = stats.truncnorm((lo - mean) / sd if ok else -1, (hi - mean) / sd if ok else 1, loc=mean, scale=sd)
+    else:
+        family = getattr(stats, name)
+        dist = family(**v)
+        shapes = [v[k] for k in accepted[:-2]]
+        ok = v.get("scale", 1.0) > 0 and bool(np.all(family._argcheck(*shapes))) if shapes else v.get("scale", 1.0) > 0
+    if ok:
+        with np.errstate(all="ignore"):
+            q = dist.ppf([1e-6, 0.5, 1 - 1e-6])
+        ok = bool(np.all(np.isfinite(q))) and q[2] > q[0]
+    if not ok:
+        given = ", ".join(f"{k} = {x:g}" for k, x in v.items())
+        raise ValueError(f"params: {name} does not accept {given} (check the ranges of {listed}; "
+                         "a proper distribution with finite quantiles is needed)")
+    return dist
 
 
 def relative_to_measured(fraction, measured):
@@ -158,7 +368,7 @@ def relative_to_measured(fraction, measured):
     loc = fraction.kwds.get("loc", rest[0] if len(rest) > 0 else 0.0)
     scale = fraction.kwds.get("scale", rest[1] if len(rest) > 1 else 1.0)
     shape_kwds = {k: v for k, v in fraction.kwds.items() if k not in ("loc", "scale")}
-    if family.name not in intervals.SYMMETRIC_UNIMODAL:
+    if not intervals.is_symmetric(fraction):
         if np.any(y <= 0):
             raise ValueError(
                 f"measured: a {family.name} fraction needs positive measured values "

@@ -74,6 +74,7 @@ class Identification:
     prognoses: tuple[Prognosis, ...]
     sample: InstanceSample
     elapsed: float
+    borderline: int = 0  # instances whose verdict changes within +-2 SE of Monte Carlo bounds
 
     @property
     def model_class_falsified(self) -> bool:
@@ -115,6 +116,8 @@ class Identification:
             "measured": [x.value for x in s],
             "uc_mean": self.combined.mean, "uc_sd": self.combined.std,
             "low": self.thresholds.low, "high": self.thresholds.high,
+            "low_se": _se(self.thresholds.se_low, len(s)), "high_se": _se(self.thresholds.se_high, len(s)),
+            "method": list(self.thresholds.method or ("exact",) * len(s)),
             "falsified": loo.per_sensor_falsified, "falsified_only_by": loo.falsified_only_by,
             "candidates_without_sensor": loo.candidates_without_sensor,
         })
@@ -134,6 +137,10 @@ class Identification:
                 unit = f" [{param.unit}]" if param.unit else ""
                 lines.append(f"  {param.name}{unit}: {number(lo)} .. {number(hi)}  "
                              f"(domain {number(param.low)} .. {number(param.high)})")
+        lines.append(f"guarantee: {self.thresholds.guarantee()}")
+        if self.thresholds.monte_carlo:
+            lines.append(f"borderline instances (verdict changes within 2 Monte Carlo SE of the bounds): "
+                         f"{self.borderline:,}")
         if r.n_invalid:
             lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
         lines += [f"- {text}" for text in self.findings()]
@@ -154,6 +161,10 @@ class Identification:
                 "phi": p.phi, "correction": p.correction, "per_sensor_probability": t.probability,
                 "combined_uncertainty": "exact" if self.combined.exact else "monte_carlo",
                 "monte_carlo_samples": None if self.combined.exact else p.n_samples,
+                "monte_carlo_seed": None if self.combined.exact else p.seed,
+                "monte_carlo_confidence": t.confidence,
+                "guaranteed_probability": t.guaranteed_probability, "guarantee": t.guarantee(),
+                "borderline_instances": self.borderline,
             },
             "sampling": ({"method": "precomputed", "n": r.n_instances} if p.sampling is None else
                          {"method": p.sampling.method, "n": p.sampling.n, "seed": p.sampling.seed,
@@ -201,6 +212,9 @@ class Identification:
         return out
 
 
+def _se(values, n: int) -> list:
+    """Per-sensor standard errors of the bounds (0 for exact bounds)."""
+    return [0.0] * n if values is None else [float(v) for v in values]
 
 
 def _clean(obj):

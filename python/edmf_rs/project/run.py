@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..engine.borderline import BorderlineCounter
 from ..engine.model import falsify_model
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
@@ -121,7 +122,7 @@ class Project:
         """U_c per sensor from the [[uncertainty]] sources (Eq. 4)."""
         try:
             combined = combine_sources(self.uncertainty, self.measured, n_samples=self.n_samples, seed=self.seed,
-                                       streams=self.kept)
+                                       streams=self.kept, sensor_names=self.sensor_names)
             threshold_bounds(combined, self.phi, self.correction) if not combined.exact else None
         except ValueError as exc:
             if "samples are needed" not in str(exc):
@@ -137,10 +138,12 @@ class Project:
         model, parameters, n_instances = self._instances()
         tracker = SensitivityTracker(thresholds, combined, self.measured)
         sample = PlotSample(n_instances)
+        borderline = BorderlineCounter(thresholds, self.measured)
 
         def on_batch(offset, theta, predictions):
             tracker(offset, theta, predictions)
             sample(offset, theta, predictions)
+            borderline(offset, theta, predictions)
 
         result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
                                progress=progress, nan=self.model.nan, on_batch=on_batch)
@@ -157,7 +160,7 @@ class Project:
             project=self, combined=combined, thresholds=thresholds, falsification=result,
             leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
             candidates=candidates, prognoses=prognoses, sample=sample.finish(result.candidate_mask),
-            elapsed=time.perf_counter() - start,
+            elapsed=time.perf_counter() - start, borderline=borderline.count,
         )
 
     def _instances(self):

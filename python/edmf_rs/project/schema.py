@@ -132,9 +132,10 @@ class UncertaintySpec:
     name: str
     kind: str
     distribution: str
-    values: tuple[float, float]  # (mean, sd) or (low, high)
+    values: tuple[float, float]  # (mean, sd) or (low, high); () for the other families
     relative_to: str
     sensors: object
+    params: tuple = ()  # (name, value) pairs: the shorthand's keys or the scipy.stats parameters
 
 
 @dataclass(frozen=True)
@@ -338,27 +339,69 @@ def distribution_values(t: Table, distribution: str, *, absolute_only: bool = Fa
     return low, high
 
 
+def _source_distribution(t: Table, name: str) -> tuple[str, tuple, tuple]:
+    """(distribution, values, params) of one [[uncertainty]] source, checked by freezing it."""
+    from ..engine.uncertainty import SHORTHANDS, accepted_parameters, distribution
+
+    family = t.get("distribution", "str", what="'normal', 'uniform', 'triangular', 'truncated_normal' or "
+                                               "a continuous scipy.stats distribution name (e.g. 'lognorm')")
+    where = f"{t.file}: {t.path('distribution')} (source '{name}')"
+    try:
+        accepted = accepted_parameters(family)
+    except ValueError as exc:
+        raise ProjectError(f"{where}: {str(exc).removeprefix('distribution: ')}") from None
+    all_short = {k for v in SHORTHANDS.values() for k in v}
+    if family in DISTRIBUTIONS:  # normal and uniform: checked key by key, as always
+        for key in ("mode", "params"):
+            if key in t.data:
+                raise t.error(key, f"no {key} for a {family} distribution (give {' and '.join(accepted)})",
+                              t.data[key])
+        values = distribution_values(t, family)
+        return family, values, tuple(zip(DISTRIBUTIONS[family], values))
+    if family in SHORTHANDS:
+        if "params" in t.data:
+            raise t.error("params", f"no params for {family} (give {', '.join(accepted)})", t.data["params"])
+        for key in all_short - set(accepted):
+            if key in t.data:
+                raise t.error(key, f"no {key} for a {family} distribution (give {', '.join(accepted)})", t.data[key])
+        params = {k: t.data[k] for k in accepted if k in t.data}
+        key = t.path("")
+    else:
+        for key in all_short:
+            if key in t.data:
+                raise t.error(key, f"params = {{ ... }} with the parameters of {family} ({', '.join(accepted)})",
+                              t.data[key])
+        params = t.get("params", "table", what=f"a table of the parameters of {family} ({', '.join(accepted)})")
+        key = t.path("params")
+    try:
+        distribution(family, params)
+    except ValueError as exc:
+        raise ProjectError(f"{t.file}: {key} (source '{name}'): {str(exc).removeprefix('params: ')}") from None
+    return family, (), tuple((k, float(v)) for k, v in params.items())
+
+
 def _uncertainty(root: Table) -> tuple[UncertaintySpec, ...]:
     tables = root.tables("uncertainty")
     if not tables:
         raise root.error("uncertainty", "at least one [[uncertainty]] source (e.g. the sensors' noise)")
     result, names = [], set()
     for t in tables:
-        t.check_keys(("name", "kind", "distribution", "mean", "sd", "low", "high", "relative_to", "sensors"))
+        t.check_keys(("name", "kind", "distribution", "mean", "sd", "low", "high", "mode", "params",
+                      "relative_to", "sensors"))
         name = t.get("name", "str", t.key)
         if name in names:
             raise t.error("name", "a name no other [[uncertainty]] source has", name)
         names.add(name)
-        distribution = t.get("distribution", "choice", choices=tuple(DISTRIBUTIONS))
+        distribution, values, params = _source_distribution(t, name)
         sensors = t.data.get("sensors", "all")
         if not (sensors == "all" or (isinstance(sensors, list) and sensors and all(isinstance(s, str) for s in sensors))
                 or (isinstance(sensors, dict) and list(sensors) == ["type"] and isinstance(sensors["type"], str))):
             raise t.error("sensors", "\"all\", a list of sensor names or {type = \"...\"}", sensors)
         result.append(UncertaintySpec(
             key=t.key, name=name, kind=t.get("kind", "choice", choices=("model", "measurement")),
-            distribution=distribution, values=distribution_values(t, distribution),
+            distribution=distribution, values=values,
             relative_to=t.get("relative_to", "choice", "absolute", choices=("absolute", "measured")),
-            sensors=sensors,
+            sensors=sensors, params=params,
         ))
     return tuple(result)
 

@@ -4,8 +4,8 @@ combined per sensor into U_c (Eq. 4).
 A source covers all sensors, a list of them, or the sensors of one type; it
 adds nothing at the sensors it does not cover. So U_c is combined sensor by
 sensor with :func:`edmf_rs.combine` from the sources covering that sensor:
-exact (normal) when every source of the project is normal, otherwise Monte
-Carlo samples for every sensor, as ``combine`` does for sources covering all.
+exact at the sensors whose sources are all normal (or that have a single
+source), Monte Carlo samples elsewhere.
 """
 
 from __future__ import annotations
@@ -16,7 +16,12 @@ import numpy as np
 from scipy import stats
 
 from ..engine import intervals
-from ..engine.uncertainty import CombinedUncertainty, combine, relative_to_measured
+from ..engine.uncertainty import (
+    CombinedUncertainty,
+    combine,
+    distribution,
+    relative_to_measured,
+)
 from .schema import ProjectError, Sensor, UncertaintySpec
 
 
@@ -41,9 +46,12 @@ class UncertaintySource:
     values: tuple[float, float]
     relative_to: str
     sensors: tuple[int, ...]
+    params: tuple = ()
 
     def base(self):
         """The scalar frozen distribution of the value (or of the fraction of the measured value)."""
+        if self.distribution not in ("normal", "uniform"):
+            return distribution(self.distribution, dict(self.params))
         return frozen(self.distribution, self.values)
 
     def per_sensor(self, measured: np.ndarray) -> list[tuple[int, object]]:
@@ -56,8 +64,11 @@ class UncertaintySource:
         return list(zip(self.sensors, intervals.split(vectorised, len(self.sensors))))
 
     def describe(self) -> str:
-        a, b = self.values
-        text = f"normal(mean {a:g}, sd {b:g})" if self.distribution == "normal" else f"uniform({a:g}, {b:g})"
+        if self.distribution in ("normal", "uniform"):
+            a, b = self.values
+            text = f"normal(mean {a:g}, sd {b:g})" if self.distribution == "normal" else f"uniform({a:g}, {b:g})"
+        else:
+            text = f"{self.distribution}({', '.join(f'{k} {v:g}' for k, v in self.params)})"
         return text + (" x measured value" if self.relative_to == "measured" else "")
 
 
@@ -89,7 +100,7 @@ def resolve_sources(specs: tuple[UncertaintySpec, ...], sensors: tuple[Sensor, .
                                    f"(expected one of: {', '.join(s.name for s in sensors)})")
             covered = tuple(sorted({position[n] for n in spec.sensors if n in position}))
         result.append(UncertaintySource(spec.name, spec.kind, spec.distribution, spec.values,
-                                        spec.relative_to, covered))
+                                        spec.relative_to, covered, spec.params))
     uncovered = sorted(set(range(len(kept))) - {j for src in result for j in src.sensors})
     if uncovered:
         name = sensors[kept[uncovered[0]]].name
@@ -99,12 +110,15 @@ def resolve_sources(specs: tuple[UncertaintySpec, ...], sensors: tuple[Sensor, .
 
 
 def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray, *,
-                    n_samples: int = 200_000, seed: int = 0, streams=None) -> CombinedUncertainty:
+                    n_samples: int = 200_000, seed: int = 0, streams=None,
+                    sensor_names=None) -> CombinedUncertainty:
     """U_c per sensor: the sum of the model sources minus the measurement sources covering it.
 
     Each sensor's Monte Carlo samples come from its own random stream, keyed by
     ``streams[j]`` (the sensor's index among all sensors, so leaving a sensor
-    out does not change the others' samples).
+    out does not change the others' samples). Sensors whose sources are all
+    normal, or that have a single source, keep their exact U_c (the
+    ``marginals``) even when other sensors need samples.
     """
     n_m = len(measured)
     model: list[list] = [[] for _ in range(n_m)]
@@ -116,13 +130,23 @@ def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray
     rngs = [np.random.default_rng([seed, int(k)]) for k in streams]
     per_sensor = [combine(model=model[j], measurement=measurement[j], n_sensors=1, n_samples=n_samples,
                           seed=rngs[j]) for j in range(n_m)]
+    names = tuple(sensor_names) if sensor_names is not None else None
     mean = np.array([c.mean[0] for c in per_sensor])
     std = np.array([c.std[0] for c in per_sensor])
     if all(c.exact for c in per_sensor):
-        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=std))
-    # One non-normal source makes U_c Monte Carlo at every sensor, as in combine().
+        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=std), seed=seed,
+                                   gaussian=np.ones(n_m, dtype=bool), symmetric=np.ones(n_m, dtype=bool),
+                                   sensor_names=names)
+    # Samples for every sensor (the phi-sensitivity diagnostics use them); the
+    # thresholds of sensors with an exact marginal come from the closed form.
     samples = np.column_stack([
         c.samples[:, 0] if not c.exact else rngs[j].normal(mean[j], std[j], n_samples)
         for j, c in enumerate(per_sensor)
     ])
-    return CombinedUncertainty(n_m, samples=samples)
+    marginals = tuple((1.0, stats.norm(mean[j], std[j])) if c.exact else c.marginals[0]
+                      for j, c in enumerate(per_sensor))
+    return CombinedUncertainty(
+        n_m, samples=samples, marginals=marginals, seed=seed, sensor_names=names,
+        symmetric=np.array([bool(c.symmetric[0]) for c in per_sensor]),
+        gaussian=np.array([c.exact or bool(c.gaussian[0]) for c in per_sensor]),
+    )

@@ -123,10 +123,12 @@ def _thresholds(ident) -> str:
     table = ident.thresholds_table()
     suspects = set(ident.leave_one_out.suspects)
     rows = [[row.sensor, row.type, row.location, row.unit, row.measured, row.uc_mean, row.uc_sd, row.low,
-             row.high, int(row.falsified), int(row.falsified_only_by), int(row.candidates_without_sensor)]
+             row.high, row.low_se, row.high_se, row.method, int(row.falsified), int(row.falsified_only_by),
+             int(row.candidates_without_sensor)]
             for row in table.itertuples()]
     html = _table(["sensor", "type", "location", "unit", "measured y", "U_c mean", "U_c sd", "T_low", "T_high",
-                   "falsified", "falsified only by it", "candidates without it"], rows, left=2,
+                   "SE T_low", "SE T_high", "bounds from", "falsified", "falsified only by it",
+                   "candidates without it"], rows, left=2,
                   row_class=lambda k: "suspect" if k in suspects else "")
     excluded = ident.project.excluded
     if excluded:
@@ -152,7 +154,9 @@ def _settings(ident) -> str:
     model = p.model.function or p.model.predictions.name
     rows = [["model", model], ["instances", sampling], ["target probability φ", f"{p.phi:g}"],
             ["correction", f"{p.correction} (per-sensor probability {t.probability:.6f})"],
-            ["combined uncertainty", combined], ["run time", f"{ident.elapsed:.1f} s"]]
+            ["combined uncertainty", combined], ["guarantee", t.guarantee()],
+            ["borderline instances (verdict changes within 2 Monte Carlo SE)", f"{ident.borderline:,}"],
+            ["run time", f"{ident.elapsed:.1f} s"]]
     return _table(["setting", "value"], rows, left=2)
 
 
