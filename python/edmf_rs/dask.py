@@ -2,7 +2,7 @@
 
 Each task runs the Rust kernel on one block of rows and returns a small
 result (the block's candidates and counts); the blocks' results are merged
-exactly by :func:`edmf_rs.concatenate`, so the outcome equals the in-process
+exactly by `edmf_rs.concatenate`, so the outcome equals the in-process
 call whatever the chunking, the number of workers or their threads. On a
 ``distributed`` worker the Rust thread pool is sized to the worker's threads.
 """

@@ -1,11 +1,11 @@
 """The two identification methods the paper compares EDMF with (Sec. 2 and 4.1).
 
 Both work on a finite set of model instances: ``predictions`` has one row per
-instance and one column per sensor, exactly as for :func:`edmf_rs.falsify`.
+instance and one column per sensor, exactly as for `edmf_rs.falsify`.
 
-- :func:`least_squares`: weighted residual minimisation (Eq. 1 and 15), one
+- `least_squares`: weighted residual minimisation (Eq. 1 and 15), one
   optimal instance.
-- :func:`bayesian_posterior`: posterior weights of the instances under a
+- `bayesian_posterior`: posterior weights of the instances under a
   prior and the Gaussian likelihood of Eq. 17, with the highest-posterior-
   density set holding a given mass.
 """

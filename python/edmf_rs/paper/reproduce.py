@@ -3,7 +3,7 @@
 The paper judges each method on one noise draw. Here every method x scenario
 x n_m is judged over many independent draws of the sensor noise (``seeds``,
 default 200) and the correct rate is reported; Table 1 is then derived from
-the rates. The rules (also returned as :data:`RULES` and written to
+the rates. The rules (also returned as `RULES` and written to
 results.json):
 
 Least squares (wls)
