@@ -10,8 +10,61 @@ def min_samples(probability: float) -> int: ...
 def mahalanobis_squared(
     points: npt.NDArray[np.float64], mean: npt.NDArray[np.float64], covariance: npt.NDArray[np.float64]
 ) -> npt.NDArray[np.float64]: ...
-def set_num_threads(n: int) -> None: ...
-def get_num_threads() -> int: ...
+def set_num_threads(n: int) -> None:
+    """Sets how many threads edmf_rs uses from now on.
+
+    The package runs its Rust work (falsification, shortest intervals) on a
+    pool of its own, sized by this call, else by the environment variable
+    ``EDMF_RS_NUM_THREADS``, else by the number of cores. Results do not
+    depend on the thread count.
+
+    Parameters
+    ----------
+    n : int
+        Number of threads, at least 1.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        If ``n`` is less than 1.
+    RuntimeError
+        If the operating system cannot start the threads.
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> before = edmf_rs.get_num_threads()
+    >>> edmf_rs.set_num_threads(1)
+    >>> edmf_rs.get_num_threads()
+    1
+    >>> edmf_rs.set_num_threads(before)
+    """
+def get_num_threads() -> int:
+    """How many threads edmf_rs uses.
+
+    Starts the pool on first use (see ``set_num_threads``).
+
+    Returns
+    -------
+    int
+        The number of threads of edmf_rs's own pool.
+
+    Raises
+    ------
+    ValueError
+        If ``EDMF_RS_NUM_THREADS`` is set to something other than a positive
+        integer (and ``set_num_threads`` was not called).
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> edmf_rs.get_num_threads() >= 1
+    True
+    """
 
 class Falsifier:
     def __init__(

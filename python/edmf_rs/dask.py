@@ -2,7 +2,7 @@
 
 Each task runs the Rust kernel on one block of rows and returns a small
 result (the block's candidates and counts); the blocks' results are merged
-exactly by :func:`edmf_rs.concatenate`, so the outcome equals the in-process
+exactly by `edmf_rs.concatenate`, so the outcome equals the in-process
 call whatever the chunking, the number of workers or their threads. On a
 ``distributed`` worker the Rust thread pool is sized to the worker's threads.
 """
@@ -37,12 +37,52 @@ from .stream.progress import bar
 
 def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,
             keep_violations: bool = False, client=None, progress: bool = True) -> FalsificationResult:
-    """:func:`edmf_rs.falsify` over the row blocks of a ``dask.array`` (N, n_m).
+    """`edmf_rs.falsify` over the row blocks of a ``dask.array`` (N, n_m).
 
-    Columns are gathered into one chunk (rows keep their chunking, unless
-    the columns were split too: then rows are rechunked to Dask's default
-    size). Runs on ``client`` if given, else on the current Dask scheduler.
-    ``keep_violations`` is off by default: it brings N counts back to the caller.
+    Each task runs the Rust kernel on one block; the blocks' results are
+    merged exactly by `edmf_rs.concatenate`, so the result equals the
+    in-process call whatever the chunking. Columns are gathered into one
+    chunk (rows keep their chunking, unless the columns were split too: then
+    rows are rechunked to Dask's default size).
+
+    Parameters
+    ----------
+    predictions : dask.array.Array or array_like
+        Predictions g(theta), (N, n_m), numeric.
+    measurements : array_like
+        Measured values y, one per sensor.
+    thresholds : Thresholds
+        The threshold bounds.
+    diagnostics : bool, default True
+        Count which sensors falsify what.
+    keep_violations : bool, default False
+        Bring back the number of violated sensors of every instance (N counts).
+    client : distributed.Client, optional
+        Where to run; default: the current Dask scheduler.
+    progress : bool, default True
+        Show a progress bar (on a ``distributed`` client).
+
+    Returns
+    -------
+    FalsificationResult
+
+    Raises
+    ------
+    TypeError
+        If ``thresholds`` is not a `Thresholds` or the predictions are not numeric.
+    ValueError
+        If the predictions are not 2-D with one column per measurement, or
+        ``keep_violations`` is asked without ``diagnostics``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import dask.array as da
+    >>> import edmf_rs, edmf_rs.dask
+    >>> t = edmf_rs.Thresholds(low=[-1.0], high=[1.0])
+    >>> P = da.from_array(np.array([[0.0], [5.0], [0.5], [-3.0], [1.0]]), chunks=(2, 1))
+    >>> edmf_rs.dask.falsify(P, [0.0], t, progress=False).candidate_indices.tolist()
+    [0, 2, 4]
     """
     y, thresholds = _checked(measurements, thresholds)
     arr = predictions if isinstance(predictions, da.Array) else da.asarray(predictions)
@@ -70,14 +110,58 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
 def falsify_model(model: Callable, parameters, measurements, thresholds: Thresholds, *, client=None,
                   batch_size: int = 10_000, diagnostics: bool = True, keep_violations: bool = False,
                   nan: str = "raise", progress: bool = True, window: int | None = None) -> FalsificationResult:
-    """:func:`edmf_rs.falsify_model` with the model evaluated on Dask workers,
+    """`edmf_rs.falsify_model` with the model evaluated on Dask workers,
     one task per batch of parameter sets.
 
-    ``parameters`` is an (N, p) NumPy or Dask array (cut into ``batch_size``
-    rows; a Dask array's parameters are generated where they are used), or an
-    iterable of (n, p) batches, sent ``window`` batches at a time so the
-    caller never holds them all. ``model`` must be picklable (cloudpickle:
-    lambdas and closures are fine) and importable on the workers.
+    Parameters
+    ----------
+    model : callable
+        Vectorised: (n, p) parameters -> (n, n_m) predictions. Must be
+        picklable (cloudpickle: lambdas and closures are fine) and importable
+        on the workers.
+    parameters : array_like, dask.array.Array or iterable of arrays
+        An (N, p) NumPy or Dask array (cut into ``batch_size`` rows; a Dask
+        array's parameters are generated where they are used), or an iterable
+        of (n, p) batches, sent ``window`` batches at a time so the caller
+        never holds them all.
+    measurements : array_like
+        Measured values y, one per sensor.
+    thresholds : Thresholds
+        The threshold bounds.
+    client : distributed.Client, optional
+        Where to run; default: the current Dask scheduler.
+    batch_size : int, default 10_000
+        Rows per task for array parameters.
+    diagnostics, keep_violations, nan, progress
+        As in `edmf_rs.falsify_model`.
+    window : int, optional
+        Batches of an iterable in flight at once; default four per worker thread.
+
+    Returns
+    -------
+    FalsificationResult
+        With ``candidate_parameters`` and ``candidate_predictions``; equal to
+        the in-process call.
+
+    Raises
+    ------
+    TypeError
+        If ``model`` is not callable, ``thresholds`` is not a `Thresholds`, or
+        ``parameters`` is neither an array nor an iterable of batches.
+    ValueError
+        If an argument is out of range, batches differ in width, or the model
+        returns the wrong shape or NaN (with ``nan="raise"``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import edmf_rs, edmf_rs.dask
+    >>> def model(theta):
+    ...     return np.column_stack([theta[:, 0], 2 * theta[:, 0]])
+    >>> t = edmf_rs.Thresholds(low=[-1.5, -1.5], high=[1.5, 1.5])
+    >>> r = edmf_rs.dask.falsify_model(model, np.arange(10.0), [4.0, 8.0], t, batch_size=3, progress=False)
+    >>> r.candidate_parameters.tolist()
+    [[4.0]]
     """
     if not callable(model):
         raise TypeError(f"model: expected a callable, got {type(model).__name__}")

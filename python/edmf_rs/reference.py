@@ -15,6 +15,34 @@ from .engine.thresholds import Thresholds
 
 
 def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") -> float:
+    """Per-sensor probability for a joint target ``phi`` (Eq. 5 with Sidak; Bonferroni; none).
+
+    Parameters
+    ----------
+    phi : float
+        Target identification probability, in (0, 1).
+    n_sensors : int
+        Number of sensors n_m.
+    correction : {"sidak", "bonferroni", "none"}, default "sidak"
+        ``phi**(1/n_m)``, ``1 - (1 - phi)/n_m`` or ``phi``.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        If ``phi`` is not in (0, 1).
+    KeyError
+        If ``correction`` is unknown.
+
+    Examples
+    --------
+    >>> from edmf_rs import reference
+    >>> round(reference.sensor_probability(0.95, 2), 6)
+    0.974679
+    """
     if not 0.0 < phi < 1.0:
         raise ValueError(f"phi: expected a value in (0, 1), got {phi}")
     return {
@@ -25,7 +53,31 @@ def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") ->
 
 
 def shortest_interval(samples: np.ndarray, probability: float) -> tuple[float, float]:
-    """Shortest interval holding ceil(p * n) of the samples (lowest one on ties)."""
+    """Shortest interval holding ceil(p * n) of the samples (lowest one on ties; Eq. 5).
+
+    Parameters
+    ----------
+    samples : array_like
+        Monte Carlo samples of one sensor's U_c.
+    probability : float
+        Probability the interval holds, in (0, 1).
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)``, both sample values.
+
+    Raises
+    ------
+    ValueError
+        If there are fewer than ``ceil(1 / (1 - probability))`` samples.
+
+    Examples
+    --------
+    >>> from edmf_rs import reference
+    >>> reference.shortest_interval([0.0, 1.0, 1.5, 2.0, 9.0], 0.6)
+    (1.0, 2.0)
+    """
     x = np.sort(np.asarray(samples, dtype=np.float64))
     n = x.size
     if n < math.ceil(1.0 / (1.0 - probability)):
@@ -37,7 +89,35 @@ def shortest_interval(samples: np.ndarray, probability: float) -> tuple[float, f
 
 
 def shortest_interval_of(dist, probability: float, grid: int = 20001) -> tuple[float, float]:
-    """Shortest interval of a frozen distribution by brute force over the lower tail mass."""
+    """Shortest interval of a frozen distribution by brute force over the lower tail mass (Eq. 5).
+
+    Parameters
+    ----------
+    dist : scipy.stats frozen distribution
+        Scalar continuous distribution of one sensor's U_c.
+    probability : float
+        Probability the interval holds.
+    grid : int, default 20001
+        Points of the grid over the lower tail mass.
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)``.
+
+    Raises
+    ------
+    ValueError
+        If every width is NaN (a distribution whose ``ppf`` is undefined).
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> from edmf_rs import reference
+    >>> low, high = reference.shortest_interval_of(stats.norm(0, 1), 0.95)
+    >>> round(low, 3), round(high, 3)
+    (-1.96, 1.96)
+    """
     a = np.linspace(0.0, 1.0 - probability, grid)[1:-1]
     widths = dist.ppf(a + probability) - dist.ppf(a)
     i = int(np.nanargmin(widths))
@@ -45,7 +125,35 @@ def shortest_interval_of(dist, probability: float, grid: int = 20001) -> tuple[f
 
 
 def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak") -> Thresholds:
-    """Eq. 5 per sensor, from samples (n_samples, n_m) or a list of frozen distributions."""
+    """Eq. 5 per sensor, from samples (n_samples, n_m) or a list of frozen distributions.
+
+    Parameters
+    ----------
+    combined : array_like or list of scipy.stats frozen distributions
+        Monte Carlo samples of U_c (n_samples, n_m), or one scalar frozen
+        distribution per sensor.
+    phi : float, default 0.95
+        Target identification probability.
+    correction : {"sidak", "bonferroni", "none"}, default "sidak"
+        See `sensor_probability`.
+
+    Returns
+    -------
+    Thresholds
+
+    Raises
+    ------
+    ValueError
+        If ``phi`` is out of range or there are too few samples.
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> from edmf_rs import reference
+    >>> t = reference.threshold_bounds([stats.norm(0, 1)], phi=0.95)
+    >>> t.high.round(3).tolist()
+    [1.96]
+    """
     if isinstance(combined, (list, tuple)) and combined and hasattr(combined[0], "ppf"):
         p = sensor_probability(phi, len(combined), correction)
         bounds = [shortest_interval_of(d, p) for d in combined]
@@ -58,7 +166,38 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak") -> 
 
 
 def falsify(predictions, measurements, thresholds: Thresholds) -> FalsificationResult:
-    """Eq. 8 for every instance at once."""
+    """Eq. 8 for every instance at once: ``low <= g - y <= high`` at every sensor.
+
+    The same outputs as `edmf_rs.falsify` with diagnostics (and
+    ``keep_violations``), from one NumPy expression over the whole array.
+
+    Parameters
+    ----------
+    predictions : array_like
+        Predictions g(theta), (N, n_m).
+    measurements : array_like
+        Measured values y, (n_m,).
+    thresholds : Thresholds
+        The threshold bounds.
+
+    Returns
+    -------
+    FalsificationResult
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not broadcast.
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> from edmf_rs import reference
+    >>> t = edmf_rs.Thresholds(low=[-1.0, -1.0], high=[1.0, 1.0])
+    >>> r = reference.falsify([[0.5, 0.0], [2.0, 0.0], [0.0, -1.5]], [0.0, 0.0], t)
+    >>> r.candidate_indices.tolist(), r.n_violated.tolist()
+    ([0], [0, 1, 1])
+    """
     g = np.asarray(predictions).astype(np.float64)
     y = np.asarray(measurements, dtype=np.float64)
     residuals = g - y  # Eq. 14

@@ -27,7 +27,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
 
     Parameters
     ----------
-    predictions
+    predictions : array_like, str, os.PathLike or iterable of arrays
         Model predictions g(theta), one row per instance and one column per
         sensor: a 2-D float64/float32 array (C, Fortran or strided, read in
         place), a path to a ``.npy`` file of any size (read in chunks by a
@@ -36,22 +36,22 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         2-D chunks (each used before the next is asked for, so a generator
         may refill one buffer). The result does not depend on the chunking
         nor on the thread count.
-    measurements
+    measurements : array_like
         Measured values y, one per sensor.
-    thresholds
-        A :class:`Thresholds`, e.g. from :func:`threshold_bounds`.
-    diagnostics
+    thresholds : Thresholds
+        The threshold bounds, e.g. from `threshold_bounds`.
+    diagnostics : bool, default True
         Visit every sensor of every instance to count which sensors falsify
         what (default). ``False`` stops at the first violated sensor: fastest,
         candidates only.
-    keep_violations
+    keep_violations : bool, optional
         Keep the number of violated sensors of every instance (``n_violated``).
         Default: yes for arrays and iterables, no for files and memory maps.
-    chunk_rows
+    chunk_rows : int, optional
         Rows per chunk when splitting an array or reading a file.
-    progress
+    progress : bool, default True
         Show a progress bar once the run lasts a few seconds.
-    checkpoint
+    checkpoint : str or os.PathLike, optional
         A folder where the run saves its candidates and position as it goes
         (every ``checkpoint_every`` seconds, on Ctrl-C and at the end). Calling
         again with the same folder and inputs resumes after the last saved
@@ -60,6 +60,43 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         first and last rows done; a finished run over an iterable returns its
         saved result after checking only the iterable's first chunk). A folder
         serves one run at a time: a second run on it meanwhile is refused.
+    checkpoint_every : float, default 60.0
+        Seconds between saves of the checkpoint.
+
+    Returns
+    -------
+    FalsificationResult
+        The candidate model set (``candidate_indices``) and, with
+        ``diagnostics``, how many instances each sensor falsifies.
+
+    Raises
+    ------
+    TypeError
+        If ``thresholds`` is not a `Thresholds`, or ``predictions`` is not an
+        array, a path or an iterable of numeric 2-D chunks.
+    ValueError
+        If ``measurements`` is not a finite vector with one value per
+        threshold, the predictions do not have one column per sensor,
+        ``keep_violations`` is asked without ``diagnostics``, or
+        ``checkpoint`` holds a run made with other inputs, is in use by
+        another run, or cannot be written.
+    CheckpointError
+        If saving the checkpoint fails during the run (e.g. a full disk); the
+        folder keeps its last saved state.
+
+    Examples
+    --------
+    Three model instances (rows) at two sensors (columns):
+
+    >>> import numpy as np
+    >>> import edmf_rs
+    >>> thresholds = edmf_rs.Thresholds(low=[-1.0, -1.0], high=[1.0, 1.0])
+    >>> predictions = np.array([[10.5, 20.0], [12.0, 20.0], [10.0, 18.5]])
+    >>> result = edmf_rs.falsify(predictions, [10.0, 20.0], thresholds, progress=False)
+    >>> result.candidate_indices.tolist(), result.per_sensor_falsified.tolist()
+    ([0], [1, 1])
+    >>> result.model_class_falsified
+    False
     """
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")

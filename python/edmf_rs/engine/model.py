@@ -102,23 +102,37 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
                   checkpoint_every: float = 60.0) -> FalsificationResult:
     """Evaluate ``model`` on every parameter set and falsify as it goes (Eq. 8).
 
+    Python evaluates the model on batch k+1 while the Rust core falsifies
+    batch k with the GIL released; only the candidates' parameters and
+    predictions are kept, so memory follows the candidate set, not N.
+
     Parameters
     ----------
-    model
+    model : callable
         Vectorised callable: ``model(batch)`` with ``batch`` of shape (n, p)
         returns predictions of shape (n, n_m), one column per sensor.
-    parameters
+    parameters : array_like or iterable of arrays
         An (N, p) array, or an iterable of (n, p) batches consumed once (e.g.
         a generator of ``scipy.stats.qmc.Sobol(d).random(n)`` draws).
-    nan
+    measurements : array_like
+        Measured values y, one per sensor.
+    thresholds : Thresholds
+        The threshold bounds, e.g. from `threshold_bounds`.
+    batch_size : int, default 10_000
+        Parameter sets per call of ``model`` when ``parameters`` is an array.
+    diagnostics : bool, default True
+        Count which sensors falsify what (see `falsify`).
+    keep_violations : bool, default False
+        Keep the number of violated sensors of every instance.
+    nan : {"raise", "falsify"}, default "raise"
         ``"raise"`` (default): a NaN prediction is an error naming the
         instance; ``"falsify"``: such instances are counted invalid.
-    on_batch
+    on_batch : callable, optional
         Called as ``on_batch(offset, parameters, predictions)`` for every batch,
         e.g. to compute extra diagnostics.
-    progress
+    progress : bool, default True
         Show a progress bar once the run lasts a few seconds.
-    checkpoint
+    checkpoint : str or os.PathLike, optional
         A folder where the run saves its candidates and position as it goes
         (every ``checkpoint_every`` seconds, on Ctrl-C or a model error, and at
         the end). Calling again with the same folder and inputs resumes after
@@ -126,9 +140,44 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         sets already done (an iterable is still drawn from, to skip them; an
         array is sliced); other inputs are refused, and so is a second run on
         the folder while this one holds it.
+    checkpoint_every : float, default 60.0
+        Seconds between saves of the checkpoint.
 
-    Returns a :class:`FalsificationResult` whose ``candidate_parameters`` and
-    ``candidate_predictions`` hold the candidates' rows.
+    Returns
+    -------
+    FalsificationResult
+        Its ``candidate_parameters`` and ``candidate_predictions`` hold the
+        candidates' rows.
+
+    Raises
+    ------
+    TypeError
+        If ``model`` or ``on_batch`` is not callable, ``thresholds`` is not a
+        `Thresholds`, ``parameters`` is neither an array nor an iterable of
+        batches, or the model returns something that is not an array.
+    ValueError
+        If the model returns the wrong shape, or NaN with ``nan="raise"``;
+        if batches differ in width; if an argument is out of range; or if
+        ``checkpoint`` holds a run made with other inputs or is in use.
+    CheckpointError
+        If saving the checkpoint fails during the run (e.g. a full disk).
+    Exception
+        Whatever the model raises, with a note naming the batch and instances.
+
+    Examples
+    --------
+    A one-parameter model at two sensors, ten parameter values:
+
+    >>> import numpy as np
+    >>> import edmf_rs
+    >>> def model(theta):                       # (n, 1) -> (n, 2)
+    ...     return np.column_stack([theta[:, 0], 2 * theta[:, 0]])
+    >>> thresholds = edmf_rs.Thresholds(low=[-1.5, -1.5], high=[1.5, 1.5])
+    >>> result = edmf_rs.falsify_model(model, np.arange(10.0), [4.0, 8.0], thresholds, progress=False)
+    >>> result.candidate_indices.tolist()
+    [4]
+    >>> result.candidate_parameters.tolist(), result.candidate_predictions.tolist()
+    ([[4.0]], [[4.0, 8.0]])
     """
     if not callable(model):
         raise TypeError(f"model: expected a callable, got {type(model).__name__}")

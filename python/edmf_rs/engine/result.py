@@ -12,30 +12,54 @@ from .thresholds import Thresholds
 
 @dataclass(frozen=True, eq=False)
 class FalsificationResult:
-    """Candidate model set and diagnostics.
+    """Candidate model set and diagnostics, as returned by `falsify` and `falsify_model`.
 
     Attributes
     ----------
-    thresholds, measurements
-        What the instances were judged against (Eq. 8).
-    n_instances
+    thresholds : Thresholds
+        The bounds the instances were judged against (Eq. 8).
+    measurements : numpy.ndarray
+        The measured values y.
+    n_instances : int
         Model instances seen.
-    candidate_indices
+    candidate_indices : numpy.ndarray
         Sorted int64 indices of the candidate models (instances not falsified).
-    per_sensor_falsified
+    n_candidates : int
+        Size of the candidate model set.
+    model_class_falsified : bool
+        True iff every instance is falsified, so the model class is (Sec. 3.1).
+    candidate_mask : numpy.ndarray
+        Boolean (N,), True at the candidates.
+    per_sensor_falsified : numpy.ndarray or None
         int64 (n_m): instances each sensor rejects. ``None`` with ``diagnostics=False``.
-    falsified_only_by
+    falsified_only_by : numpy.ndarray or None
         int64 (n_m): instances rejected by that sensor and by no other, so
         ``n_candidates + falsified_only_by[i]`` is the candidate set size when
         sensor i is left out. ``None`` with ``diagnostics=False``.
-    n_invalid
+    candidates_without_sensor : numpy.ndarray or None
+        Candidate set size when each sensor in turn is left out.
+    n_invalid : int or None
         Instances with a NaN prediction (never candidates). ``None`` with
         ``diagnostics=False``.
-    n_violated
+    n_violated : numpy.ndarray or None
         int32 (N): sensors each instance violates, when kept.
-    candidate_parameters, candidate_predictions
+    candidate_parameters, candidate_predictions : numpy.ndarray or None
         Parameters (n_c, p) and predictions (n_c, n_m) of the candidates, when
-        the instances came from :func:`edmf_rs.falsify_model`.
+        the instances came from `falsify_model`.
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> thresholds = edmf_rs.Thresholds(low=[-1.0, -1.0], high=[1.0, 1.0])
+    >>> r = edmf_rs.falsify([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0]], [0.0, 0.0], thresholds, progress=False)
+    >>> r
+    FalsificationResult(n_instances=3, n_candidates=1, model_class_falsified=False)
+    >>> r.candidate_mask.tolist(), r.candidates_without_sensor.tolist()
+    ([True, False, False], [2, 1])
+    >>> print(r.summary())
+    EDMF: 3 model instances, 2 sensors
+    candidate model set: 1 instances (33.3 %)
+    sensors falsifying most instances: #0 (2), #1 (1)
     """
 
     thresholds: Thresholds
@@ -77,6 +101,25 @@ class FalsificationResult:
         return self.n_candidates + self.falsified_only_by
 
     def summary(self) -> str:
+        """A few lines for the terminal: instances, thresholds, candidates, sensors that falsify most.
+
+        Returns
+        -------
+        str
+            The summary; when the model class is falsified, it names the sensor
+            whose removal alone would leave the most candidates.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> t = edmf_rs.Thresholds(low=[-1.0, -1.0], high=[1.0, 1.0])
+        >>> r = edmf_rs.falsify([[5.0, 0.0], [5.0, 0.5]], [0.0, 0.0], t, progress=False)
+        >>> print(r.summary())
+        EDMF: 2 model instances, 2 sensors
+        candidate model set: EMPTY - every instance is falsified, so the model class is falsified
+        sensors falsifying most instances: #0 (2), #1 (0)
+        ignoring sensor #0 alone would leave 2 candidates: check it for an outlier
+        """
         t = self.thresholds
         share = 100.0 * self.n_candidates / self.n_instances if self.n_instances else 0.0
         lines = [
@@ -115,7 +158,37 @@ def concatenate(parts: list[FalsificationResult]) -> FalsificationResult:
     """One result for consecutive blocks of instances, given in instance order.
 
     Counts add up and candidate indices are shifted by the instances before
-    each block, so the outcome equals falsifying all instances at once.
+    each block, so the outcome equals falsifying all instances at once (this
+    is how `edmf_rs.dask` merges its blocks).
+
+    Parameters
+    ----------
+    parts : list of FalsificationResult
+        Results of consecutive blocks, against the same thresholds and
+        measurements.
+
+    Returns
+    -------
+    FalsificationResult
+        The result over all the blocks.
+
+    Raises
+    ------
+    ValueError
+        If ``parts`` is empty or its results were computed against other
+        thresholds or measurements.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import edmf_rs
+    >>> t = edmf_rs.Thresholds(low=[-1.0], high=[1.0])
+    >>> P = np.array([[0.0], [5.0], [0.5], [-3.0], [1.0]])
+    >>> parts = [edmf_rs.falsify(P[:2], [0.0], t, progress=False),
+    ...          edmf_rs.falsify(P[2:], [0.0], t, progress=False)]
+    >>> whole = edmf_rs.concatenate(parts)
+    >>> whole.candidate_indices.tolist(), whole.n_instances
+    ([0, 2, 4], 5)
     """
     if not parts:
         raise ValueError("parts: expected at least one result")

@@ -25,23 +25,56 @@ CORRECTIONS = ("sidak", "bonferroni", "none")
 
 @dataclass(frozen=True, eq=False)
 class Thresholds:
-    """Per-sensor bounds ``[low_i, high_i]`` on the residual ``g_i(theta) - y_i``.
+    """Per-sensor threshold bounds ``[low_i, high_i]`` on the residual ``g_i(theta) - y_i``.
 
-    ``phi``, ``probability`` (per sensor) and ``correction`` record how the
-    bounds were computed; they are ``None`` for bounds given by hand.
-    ``gaussian`` says whether U_c is normal at every sensor (it decides what
-    the correction guarantees, see :attr:`guaranteed_probability`). Bounds
-    from Monte Carlo samples also carry each bound's Monte Carlo standard
-    error ``se_low``/``se_high`` (0 where the bound is exact), the estimator
-    per sensor ``method`` ("exact", "central" or "shortest"), the
-    ``confidence`` with which each Monte Carlo interval holds at least
-    ``probability``, and the ``n_samples`` and ``seed`` of the draws.
+    Made by `threshold_bounds`, or by hand, e.g. to reuse bounds computed by
+    another tool (mind its sign convention: edmf_rs bounds ``g - y``, Eq. 8).
+
+    Parameters
+    ----------
+    low, high : array_like
+        T_low,i and T_high,i, one per sensor, finite, ``low <= high``.
+    phi : float, optional
+        Target identification probability the bounds were computed for.
+    probability : float, optional
+        Probability each sensor's interval holds.
+    correction : str, optional
+        ``"sidak"``, ``"bonferroni"`` or ``"none"``. ``phi``, ``probability``
+        and ``correction`` are None for bounds given by hand.
+
+    Attributes
+    ----------
+    n_sensors : int
+        Number of sensors n_m.
+    width : numpy.ndarray
+        ``high - low`` per sensor.
+    gaussian : bool or None
+        Whether U_c is normal at every sensor; it decides what the correction
+        guarantees (`guaranteed_probability`).
+    se_low, se_high : numpy.ndarray or None
+        Monte Carlo standard error of each bound (0 where the bound is exact).
+    method : tuple of str or None
+        The estimator per sensor: "exact", "central" or "shortest".
+    confidence : float or None
+        Confidence with which each Monte Carlo interval holds at least
+        ``probability``; ``n_samples`` and ``seed`` record the draws.
+
+    Raises
+    ------
+    ValueError
+        If ``low`` or ``high`` is not a finite 1-D vector, they differ in
+        length, or ``low > high`` at some sensor.
 
     Examples
     --------
-    >>> t = Thresholds([-1.0, -2.0], [1.0, 2.0])
-    >>> t.width.tolist(), t.guaranteed_probability
-    ([2.0, 4.0], None)
+    >>> import edmf_rs
+    >>> t = edmf_rs.Thresholds(low=[-1.0, -2.0], high=[1.0, 0.5])
+    >>> t.n_sensors, t.width.tolist(), t.guaranteed_probability
+    (2, [2.0, 2.5], None)
+    >>> edmf_rs.Thresholds(low=[1.0], high=[0.0])
+    Traceback (most recent call last):
+    ...
+    ValueError: low: expected low <= high, got low=1.0 > high=0.0 at sensor 0
     """
 
     low: np.ndarray
@@ -102,7 +135,13 @@ class Thresholds:
         return max(0.0, 1.0 - n * (1.0 - p))
 
     def guarantee(self) -> str:
-        """One line saying what the bounds guarantee (printed with project results)."""
+        """One line saying what the bounds guarantee (printed with project results).
+
+        Returns
+        -------
+        str
+            The guaranteed joint probability and the inequality it rests on.
+        """
         if self.probability is None:
             return "bounds given by hand: no probability is attached to them"
         g = self.guaranteed_probability
@@ -125,7 +164,40 @@ class Thresholds:
 
 
 def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") -> float:
-    """Probability each sensor's interval must hold for a joint target ``phi``."""
+    """Probability each sensor's interval must hold for a joint target ``phi`` (Eqs. 5, 7).
+
+    Parameters
+    ----------
+    phi : float
+        Target identification probability, in (0, 1).
+    n_sensors : int
+        Number of sensors n_m, at least 1.
+    correction : {"sidak", "bonferroni", "none"}, default "sidak"
+        ``"sidak"``: ``phi**(1/n_m)`` (Eq. 5), the joint probability is
+        exactly ``phi`` for independent sensors and at least ``phi`` for
+        jointly Gaussian U_c whatever the correlations. ``"bonferroni"``:
+        ``1 - (1 - phi)/n_m``, at least ``phi`` under any dependence.
+        ``"none"``: ``phi`` per sensor.
+
+    Returns
+    -------
+    float
+        The per-sensor probability.
+
+    Raises
+    ------
+    ValueError
+        If ``phi`` is not in (0, 1), ``n_sensors`` is not a positive integer,
+        ``correction`` is unknown, or the probability rounds to 1.
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> round(edmf_rs.sensor_probability(0.95, 10), 6)
+    0.994884
+    >>> round(edmf_rs.sensor_probability(0.95, 10, "bonferroni"), 6)
+    0.995
+    """
     phi = probability(phi, "phi")
     n_sensors = positive_int(n_sensors, "n_sensors")
     if correction == "sidak":
@@ -147,32 +219,51 @@ def sensor_probability(phi: float, n_sensors: int, correction: str = "sidak") ->
 def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
                      confidence: float = mc_intervals.DEFAULT_CONFIDENCE, estimator: str = "conservative",
                      seed=None) -> Thresholds:
-    """Threshold bounds from the combined uncertainty of every sensor (Eqs. 5-6).
+    """Threshold bounds from the combined uncertainty of every sensor (Eqs. 5-7).
+
+    Per sensor, an interval of U_c holding the per-sensor probability
+    (`sensor_probability`): ``phi**(1/n_m)`` with the Sidak correction (Eq. 5),
+    so that the hyper-rectangle of all sensors holds ``phi`` (Eq. 7) when U_c
+    is Gaussian; whatever the dependence, the guaranteed joint probability is
+    the Bonferroni bound (`Thresholds.guaranteed_probability`).
 
     Parameters
     ----------
-    combined
-        One of: the result of :func:`edmf_rs.combine` (exact bounds where a
-        sensor's U_c is known in closed form, Monte Carlo elsewhere); a
-        sequence of n_m frozen ``scipy.stats`` continuous distributions, or one
-        vectorised over the n_m sensors (exact); a 2-D array of Monte Carlo
-        samples of U_c, shape (n_samples, n_m).
-    phi : target identification probability
-    correction : "sidak" (Eq. 5), "bonferroni" (holds phi for any dependence) or "none"
-    confidence : probability that each Monte Carlo interval holds at least the
-        per-sensor probability (see :mod:`edmf_rs.mc_intervals`)
-    estimator : "conservative" (default) or "shortest": the plain shortest
-        window of ceil(pN) samples, computed in Rust, which holds p only on average
-    seed : seed of the bootstrap standard errors (default: the samples' seed, else 0)
+    combined : CombinedUncertainty, array_like or frozen distributions
+        One of:
+
+        - the result of `combine`: exact bounds where a sensor's U_c is known
+          in closed form, Monte Carlo elsewhere;
+        - a 2-D array of Monte Carlo samples of U_c, shape (n_samples, n_m);
+        - a sequence of n_m frozen ``scipy.stats`` continuous distributions,
+          or one frozen distribution vectorised over the n_m sensors (exact).
+    phi : float, default 0.95
+        Target identification probability, in (0, 1).
+    correction : {"sidak", "bonferroni", "none"}, default "sidak"
+        How the per-sensor probability follows from ``phi``
+        (`sensor_probability`); "bonferroni" holds ``phi`` for any dependence.
+    confidence : float, optional
+        Probability that each Monte Carlo interval holds at least the
+        per-sensor probability (see `edmf_rs.engine.mc_intervals`).
+    estimator : {"conservative", "shortest"}, default "conservative"
+        "shortest" is the plain shortest window of ceil(pN) samples, computed
+        in Rust, which holds p only on average.
+    seed : int, optional
+        Seed of the bootstrap standard errors (default: the samples' seed, else 0).
 
     Returns
     -------
     Thresholds
+        The bounds, with ``phi``, the per-sensor ``probability``, the
+        ``correction`` and the Monte Carlo standard errors recorded.
 
     Raises
     ------
-    ValueError, TypeError
-        Bad phi/correction, or too few samples (the message says how many are needed).
+    TypeError
+        If ``combined`` is none of the above.
+    ValueError
+        If ``phi`` or ``correction`` is invalid, or there are too few samples
+        (the message says how many are needed).
 
     Warns
     -----
@@ -182,9 +273,10 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
     Examples
     --------
     >>> from scipy import stats
-    >>> t = threshold_bounds(stats.norm([0.0, 1.0], 1.0), phi=0.95)
-    >>> round(float(t.high[0]), 4), round(t.guaranteed_probability, 4)
-    (2.2365, 0.95)
+    >>> import edmf_rs
+    >>> t = edmf_rs.threshold_bounds([stats.norm(0, 1), stats.norm(0, 2)], phi=0.95)
+    >>> round(t.probability, 4), t.high.round(2).tolist(), round(t.guaranteed_probability, 4)
+    (0.9747, [2.24, 4.47], 0.95)
     """
     from .uncertainty import CombinedUncertainty
 

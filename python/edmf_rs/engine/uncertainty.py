@@ -20,17 +20,46 @@ from ._validate import finite_vector, positive_int
 
 @dataclass(frozen=True, eq=False)
 class CombinedUncertainty:
-    """U_c per sensor (Eq. 4).
+    """The combined uncertainty U_c of every sensor (Eq. 4), as made by `combine`.
 
-    ``distribution`` (a vectorised normal) when every source at every sensor is
-    normal; otherwise Monte Carlo ``samples`` of shape (n_samples, n_m) for
-    every sensor, and per sensor the exact ``marginals`` where known: ``(sign,
-    frozen distribution)`` when the sensor's sources are all normal or it has
-    a single source, else ``None``. Threshold bounds use the exact marginal
-    where there is one and the samples elsewhere. ``symmetric`` marks sensors
-    whose every source is symmetric about its mean (so U_c is), ``gaussian``
-    those whose every source is normal. ``seed`` is the seed the samples were
-    drawn with (None when a Generator was passed).
+    Exact when every source is normal (``distribution``, a normal vectorised
+    over the sensors), otherwise Monte Carlo ``samples`` for every sensor, with
+    the exact ``marginals`` kept where known. Pass it to `threshold_bounds`,
+    which uses the exact marginal where there is one and the samples elsewhere.
+
+    Attributes
+    ----------
+    n_sensors : int
+        Number of sensors n_m.
+    distribution : scipy.stats frozen distribution or None
+        ``scipy.stats.norm`` with one mean and standard deviation per sensor,
+        when every source is normal; else None.
+    samples : numpy.ndarray or None
+        Monte Carlo samples of U_c, shape (n_samples, n_m), when not exact;
+        else None.
+    marginals : list or None
+        Per sensor, ``(sign, frozen distribution)`` when the sensor's sources
+        are all normal or it has a single source, else None.
+    symmetric, gaussian : numpy.ndarray of bool
+        Sensors whose every source is symmetric about its mean (so U_c is),
+        and those whose every source is normal.
+    seed : int or None
+        The seed the samples were drawn with (None when a Generator was passed).
+    exact : bool
+        True when ``distribution`` is given.
+    mean, std : numpy.ndarray
+        Mean and standard deviation of U_c per sensor (of the samples when
+        not exact).
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> import edmf_rs
+    >>> uc = edmf_rs.combine(model=stats.norm(-1.0, 0.3), measurement=stats.norm(0, 0.4), n_sensors=2)
+    >>> uc.exact, uc.n_sensors
+    (True, 2)
+    >>> uc.mean.tolist(), uc.std.round(3).tolist()
+    ([-1.0, -1.0], [0.5, 0.5])
     """
 
     n_sensors: int
@@ -107,11 +136,13 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
             n_sensors: int | None = None) -> CombinedUncertainty:
     """Combine uncertainty sources into U_c per sensor (Eq. 4).
 
-    ``model`` and ``measurement`` are a source or a list of sources; each source
-    is a frozen distribution (scalar: same for all sensors; or vectorised over
-    the n_m sensors) or a list of n_m scalar frozen distributions. Sources are
-    independent of each other at a sensor; how sensors depend on each other does
-    not matter to the thresholds, which use each sensor's marginal only.
+    From Eq. 4, the residual of the right model instance is
+    ``g_i(theta*) - y_i = eps_model,i - eps_measure,i``, so
+    U_c,i = sum(model sources) - sum(measurement sources). A model error is
+    prediction minus true value, a measurement error reading minus true value.
+    Sources are independent of each other at a sensor; how sensors depend on
+    each other does not matter to the thresholds, which use each sensor's
+    marginal only (Eq. 7).
 
     A sensor whose sources are all normal keeps its exact normal U_c, and a
     sensor with a single source keeps that source's distribution, even when
@@ -119,28 +150,57 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
 
     Parameters
     ----------
-    model, measurement : frozen distribution or list of sources
-    n_samples : Monte Carlo samples per sensor when some source is not normal
-    seed : seed of the Monte Carlo draws (default 0, so two identical calls give
-        identical samples and bounds); recorded on the result
-    n_sensors : n_m, needed when every source is scalar
+    model, measurement : source or list of sources
+        Each source is a frozen ``scipy.stats`` continuous distribution
+        (scalar: the same at every sensor; or vectorised over the n_m
+        sensors, e.g. from `relative_to_measured`), or a list of n_m scalar
+        frozen distributions, one per sensor.
+    n_samples : int, default 200_000
+        Monte Carlo samples of U_c when some source is not normal.
+    seed : int, numpy.random.Generator or None, default 0
+        Seed of those samples (fixed by default, so two identical calls give
+        identical samples and bounds); recorded on the result.
+    n_sensors : int, optional
+        Number of sensors n_m; needed when every source is scalar.
 
     Returns
     -------
     CombinedUncertainty
+        Exact (a normal per sensor) when every source is normal, otherwise
+        ``n_samples`` Monte Carlo samples of U_c per sensor.
 
     Raises
     ------
-    TypeError, ValueError
-        Sources that are not frozen distributions, disagree on n_m, or give
+    TypeError
+        If a source is not a frozen ``scipy.stats`` distribution or a list of them.
+    ValueError
+        If there is no source, the sources disagree on the number of sensors,
+        every source is scalar and ``n_sensors`` is missing, the combined
+        standard deviation is zero at a sensor, or a distribution gives
         non-finite samples.
 
     Examples
     --------
+    The paper's cantilever: a model error of mean -10 %, sd 15 % of the
+    measured values, and sensor noise of 0.02 mm.
+
+    >>> import numpy as np
     >>> from scipy import stats
-    >>> c = combine(model=stats.uniform(-1, 2), measurement=stats.norm(0, 1), n_sensors=3, n_samples=2000)
-    >>> c.exact, c.seed, c.samples.shape, bool(c.symmetric.all())
-    (False, 0, (2000, 3), True)
+    >>> import edmf_rs
+    >>> y = np.array([2.0, 4.0])
+    >>> uc = edmf_rs.combine(model=edmf_rs.relative_to_measured(stats.norm(-0.10, 0.15), y),
+    ...                      measurement=stats.norm(0, 0.02))
+    >>> uc.exact
+    True
+    >>> uc.mean.tolist()
+    [-0.2, -0.4]
+
+    A uniform source makes U_c Monte Carlo (seeded by default):
+
+    >>> uc = edmf_rs.combine(model=stats.uniform(-0.5, 1.0), measurement=stats.norm(0, 0.1),
+    ...                      n_sensors=3, n_samples=10_000)
+    >>> uc.exact, uc.seed, uc.samples.shape, bool(uc.symmetric.all())
+    (False, 0, (10000, 3), True)
     """
     sources = []
     for sign, group, name in ((1.0, model, "model"), (-1.0, measurement, "measurement")):
@@ -307,7 +367,7 @@ def distribution(name: str, params: dict):
     >>> float(distribution("lognorm", {"s": 0.25, "scale": 1.0}).median())
     1.0
     >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()), 12)  # (a²+b²+c²-ab-ac-bc)/18
-    0.16666666666666666
+    0.166666666667
     """
     accepted = accepted_parameters(name)
     listed = ", ".join(accepted)
@@ -352,12 +412,43 @@ def distribution(name: str, params: dict):
 def relative_to_measured(fraction, measured):
     """A source expressed as a fraction of each sensor's measured value.
 
-    ``fraction`` is a scalar frozen distribution of the fraction, e.g.
-    ``scipy.stats.norm(-0.10, 0.15)`` for the paper's model uncertainty "mean
-    -10 % of the measured value, 15 % standard deviation". Returns the frozen
-    distribution of ``fraction * y`` vectorised over the sensors. Negative
-    measured values flip the fraction, which keeps the family only when it is
-    symmetric, so asymmetric families need positive measurements.
+    The error at sensor i is ``fraction * y_i``, with the sign of ``y_i``: for
+    a negative reading the distribution is mirrored, so a model error of mean
+    -10 % is an underestimated magnitude for readings of either sign. This
+    keeps the family only when it is symmetric, so asymmetric families need
+    positive measurements. Pass ``numpy.abs(y)`` for fractions of the
+    magnitude instead (see the documentation's porting page).
+
+    Parameters
+    ----------
+    fraction : scipy.stats frozen distribution
+        A scalar frozen distribution of the fraction, e.g.
+        ``scipy.stats.norm(-0.10, 0.15)`` for the paper's model uncertainty
+        "mean -10 % of the measured value, 15 % standard deviation".
+    measured : array_like
+        The measured values y, one per sensor, finite.
+
+    Returns
+    -------
+    scipy.stats frozen distribution
+        The distribution of ``fraction * y``, of the same family, vectorised
+        over the sensors; a source for `combine`.
+
+    Raises
+    ------
+    TypeError
+        If ``fraction`` is not a scalar frozen ``scipy.stats`` distribution.
+    ValueError
+        If ``measured`` is not a finite 1-D vector, or a measured value is
+        <= 0 while the family is not symmetric (e.g. lognormal).
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> import edmf_rs
+    >>> d = edmf_rs.relative_to_measured(stats.norm(-0.10, 0.15), [4.0, -5.0])
+    >>> d.mean().round(6).tolist(), d.std().round(6).tolist()
+    ([-0.4, 0.5], [0.6, 0.75])
     """
     if not intervals.is_frozen(fraction) or intervals.batch_shape(fraction) != ():
         raise TypeError("fraction: expected a scalar frozen scipy.stats distribution")

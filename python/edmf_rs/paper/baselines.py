@@ -1,11 +1,11 @@
 """The two identification methods the paper compares EDMF with (Sec. 2 and 4.1).
 
 Both work on a finite set of model instances: ``predictions`` has one row per
-instance and one column per sensor, exactly as for :func:`edmf_rs.falsify`.
+instance and one column per sensor, exactly as for `edmf_rs.falsify`.
 
-- :func:`least_squares`: weighted residual minimisation (Eq. 1 and 15), one
+- `least_squares`: weighted residual minimisation (Eq. 1 and 15), one
   optimal instance.
-- :func:`bayesian_posterior`: posterior weights of the instances under a
+- `bayesian_posterior`: posterior weights of the instances under a
   prior and the Gaussian likelihood of Eq. 17, with the highest-posterior-
   density set holding a given mass.
 """
@@ -22,11 +22,27 @@ from ..engine._validate import finite_vector, probability
 
 @dataclass(frozen=True, eq=False)
 class LeastSquaresResult:
-    """Optimum of Eq. 15 over the instances.
+    """Optimum of Eq. 15 over the instances, as returned by `least_squares`.
 
-    ``objective`` is eps_o^T W eps_o for every instance, ``weights`` the
-    diagonal of W, ``index`` the minimising instance (the first on ties) and
-    ``value`` its parameter value when ``parameters`` were given.
+    Attributes
+    ----------
+    index : int
+        The minimising instance (the first on ties).
+    objective : numpy.ndarray
+        eps_o^T W eps_o for every instance.
+    weights : numpy.ndarray
+        The diagonal of W.
+    value : object
+        The parameter value of ``index`` when ``parameters`` were given, else None.
+    minimum : float
+        The objective at ``index``.
+
+    Examples
+    --------
+    >>> from edmf_rs.paper import baselines
+    >>> r = baselines.least_squares([[1.0], [2.0], [3.0]], [2.2], weights="sigma", sigma=1.0)
+    >>> r.index, round(r.minimum, 2)
+    (1, 0.04)
     """
 
     index: int
@@ -41,12 +57,33 @@ class LeastSquaresResult:
 
 @dataclass(frozen=True, eq=False)
 class PosteriorResult:
-    """Posterior over the instances (Eq. 2 with the likelihood of Eq. 17).
+    """Posterior over the instances (Eq. 2 with the likelihood of Eq. 17), as returned by `bayesian_posterior`.
 
-    ``posterior`` sums to one; ``log_likelihood`` includes the normalising
-    constant of Eq. 17. ``hpd_mask`` / ``hpd_indices`` are the
-    highest-posterior-density set: instances taken by decreasing posterior
-    (lower index first on ties) until their cumulative mass reaches ``mass``.
+    Attributes
+    ----------
+    posterior : numpy.ndarray
+        Posterior probability of every instance; sums to one.
+    log_likelihood : numpy.ndarray
+        Log-likelihood of every instance, with the normalising constant of Eq. 17.
+    hpd_mask : numpy.ndarray
+        The highest-posterior-density set: instances taken by decreasing
+        posterior (lower index first on ties) until their cumulative mass
+        reaches ``mass``.
+    mass : float
+        Probability mass of that set.
+    hpd_indices : numpy.ndarray
+        Indices of the set.
+    hpd_size : int
+        Its size.
+    map_index : int
+        The most probable instance (maximum a posteriori).
+
+    Examples
+    --------
+    >>> from edmf_rs.paper import baselines
+    >>> r = baselines.bayesian_posterior([[1.0], [2.0], [3.0]], [2.0], covariance=[0.25])
+    >>> r.map_index, r.hpd_indices.tolist(), round(float(r.posterior.sum()), 6)
+    (1, [0, 1, 2], 1.0)
     """
 
     posterior: np.ndarray
@@ -112,6 +149,37 @@ def least_squares(predictions, measurements, *, weights="measured", sigma=None,
       after Mottershead et al.), i.e. relative residuals;
     - ``"sigma"``: W = diag(sigma)^-2 with ``sigma`` (scalar or per sensor);
     - an array of n_m non-negative weights (e.g. 1/sigma^2), used as given.
+
+    Parameters
+    ----------
+    predictions : array_like
+        g(theta), one row per instance, one column per sensor.
+    measurements : array_like
+        y, one per sensor.
+    weights : {"measured", "sigma"} or array_like, default "measured"
+        The diagonal of W, as above.
+    sigma : float or array_like, optional
+        Standard deviations, with ``weights="sigma"`` only.
+    parameters : array_like, optional
+        One parameter value (or row) per instance, to report the optimum's.
+
+    Returns
+    -------
+    LeastSquaresResult
+
+    Raises
+    ------
+    ValueError
+        If a measured value is zero with ``weights="measured"``, ``sigma`` is
+        missing or not positive, the weights are negative or all zero, or the
+        shapes disagree.
+
+    Examples
+    --------
+    >>> from edmf_rs.paper import baselines
+    >>> r = baselines.least_squares([[1.0, 2.0], [2.0, 4.0]], [2.1, 3.9], parameters=[10.0, 20.0])
+    >>> r.index, float(r.value)
+    (1, 20.0)
     """
     y = finite_vector(measurements, "measurements")
     g = _predictions(predictions, y.shape[0])
@@ -160,8 +228,32 @@ def _log_prior(prior, n: int) -> np.ndarray:
 def gaussian_log_likelihood(residuals, covariance) -> np.ndarray:
     """log N(residuals; 0, covariance) for each row of ``residuals`` (Eq. 17).
 
-    ``covariance`` is a vector of variances (independent errors) or a full
-    symmetric positive-definite matrix (correlated errors).
+    Parameters
+    ----------
+    residuals : array_like
+        (N, n_m) residuals, one row per instance.
+    covariance : array_like
+        A vector of n_m variances (independent errors) or a full symmetric
+        positive-definite (n_m, n_m) matrix (correlated errors).
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) log-densities.
+
+    Raises
+    ------
+    TypeError
+        If ``covariance`` is not numeric.
+    ValueError
+        If ``covariance`` has the wrong shape, is not finite, not positive
+        (definite) or not symmetric.
+
+    Examples
+    --------
+    >>> from edmf_rs.paper import baselines
+    >>> baselines.gaussian_log_likelihood([[0.0]], [1.0]).round(4).tolist()
+    [-0.9189]
     """
     r = np.asarray(residuals, dtype=np.float64)
     n_m = r.shape[1]
@@ -197,7 +289,27 @@ def gaussian_log_likelihood(residuals, covariance) -> np.ndarray:
 
 def hpd_mask(posterior: np.ndarray, mass: float) -> np.ndarray:
     """Highest-posterior-density set: instances by decreasing posterior until
-    the cumulative mass reaches ``mass`` (the one crossing it included)."""
+    the cumulative mass reaches ``mass`` (the one crossing it included).
+
+    Parameters
+    ----------
+    posterior : numpy.ndarray
+        Posterior probabilities of the instances, summing to one.
+    mass : float
+        Probability mass the set must hold.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask of the set.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from edmf_rs.paper import baselines
+    >>> baselines.hpd_mask(np.array([0.1, 0.6, 0.3]), 0.8).tolist()
+    [False, True, True]
+    """
     order = np.argsort(-posterior, kind="stable")
     cumulative = np.cumsum(posterior[order])
     # A tiny tolerance so that round-off in the sum never adds an extra instance.
@@ -217,6 +329,38 @@ def bayesian_posterior(predictions, measurements, covariance, *, mean=0.0, prior
     paper's independence assumption) or a full matrix. ``prior`` is one
     non-negative weight per instance; the default is uniform (Eq. 16).
     Normalisation uses log-sum-exp, so very peaked likelihoods do not underflow.
+
+    Parameters
+    ----------
+    predictions : array_like
+        g(theta), one row per instance, one column per sensor.
+    measurements : array_like
+        y, one per sensor.
+    covariance : array_like
+        Variances (n_m,) or a covariance matrix (n_m, n_m).
+    mean : float or array_like, default 0.0
+        Mean of the combined uncertainty, scalar or per sensor.
+    prior : array_like, optional
+        One non-negative weight per instance; uniform by default.
+    mass : float, default 0.95
+        Mass of the highest-posterior-density set.
+
+    Returns
+    -------
+    PosteriorResult
+
+    Raises
+    ------
+    ValueError
+        If the shapes disagree, the prior is negative or all zero, ``mass`` is
+        not in (0, 1), or the covariance is invalid.
+
+    Examples
+    --------
+    >>> from edmf_rs.paper import baselines
+    >>> r = baselines.bayesian_posterior([[1.0], [2.0], [3.0]], [2.9], covariance=[0.01], mass=0.95)
+    >>> r.map_index, r.hpd_size
+    (2, 1)
     """
     y = finite_vector(measurements, "measurements")
     g = _predictions(predictions, y.shape[0])

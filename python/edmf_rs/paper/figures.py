@@ -24,7 +24,33 @@ GPA = 1e3  # the E axis is in 10^3 MPa (GPa), as in the paper
 
 
 def save_figure(fig: Figure, path, dpi: int = 150) -> Path:
-    """Save ``fig`` as a PNG at ``path`` atomically; returns the path."""
+    """Save ``fig`` as a PNG at ``path`` atomically.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or pathlib.Path
+    dpi : int, default 150
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from matplotlib.figure import Figure
+    >>> from edmf_rs.paper import figures
+    >>> path = figures.save_figure(Figure(), pathlib.Path(tempfile.mkdtemp()) / "empty.png")
+    >>> path.read_bytes()[1:4] == b"PNG"
+    True
+    """
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=dpi)
@@ -46,7 +72,23 @@ def _ellipse(bound: float, rho: float, n: int = 400) -> np.ndarray:
 def coverage_figure(results, path=None) -> Figure:
     """Fig. 3: draws, the ellipse of the assumed correlation and the Sidak rectangle.
 
-    ``results`` are :class:`edmf_rs.coverage.CoverageResult`, one panel each.
+    Parameters
+    ----------
+    results : iterable of CoverageResult
+        One panel each, e.g. from `coverage.figure3_cases`.
+    path : str or pathlib.Path, optional
+        Where to save the PNG.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from edmf_rs.paper import coverage, figures
+    >>> fig = figures.coverage_figure(coverage.figure3_cases(n_draws=100))
+    >>> len(fig.axes)
+    3
     """
     results = list(results)
     fig = Figure(figsize=(4.0 * len(results), 4.9), layout="constrained")
@@ -86,8 +128,28 @@ def identification_figure(identifications, path=None, *, parameters=cl.E_GRID,
     """Figs. 6-8: one panel per n_m with the Bayesian posterior (bars), the
     least-squares optimum, the candidate model set (shaded) and E* (star).
 
-    ``identifications`` are :class:`edmf_rs.reproduce.Identification` of one
-    scenario, e.g. from :func:`edmf_rs.reproduce.example_identifications`.
+    Parameters
+    ----------
+    identifications : iterable of Identification
+        Of one scenario, e.g. from `reproduce.example_identifications`.
+    path : str or pathlib.Path, optional
+        Where to save the PNG.
+    parameters : array_like, default E_GRID
+        The instances' Young's moduli, MPa.
+    true_value : float, default E_TRUE
+        E*, MPa.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from edmf_rs.examples import cantilever as cl
+    >>> from edmf_rs.paper import figures, reproduce
+    >>> fig = figures.identification_figure(reproduce.example_identifications(cl.scenario(2), n_sensors=(1, 10)))
+    >>> len(fig.axes)
+    2
     """
     idents = list(identifications)
     scn = idents[0].scenario

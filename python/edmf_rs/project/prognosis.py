@@ -23,11 +23,37 @@ from ..engine._validate import probability as check_probability
 
 @dataclass(frozen=True, eq=False)
 class Prognosis:
-    """A quantity of interest over the candidate model set.
+    """A quantity of interest over the candidate model set, as made by `predict`.
 
-    ``values`` holds q(theta) of every candidate; ``model_low``/``model_high``
-    their range; ``low``/``high`` the range once the QoI's own model
-    uncertainty is included (equal to the former without one).
+    Attributes
+    ----------
+    name, unit : str
+        What the quantity is, for reports.
+    values : numpy.ndarray
+        q(theta) of every candidate (read-only).
+    n_candidates : int
+        Number of candidates.
+    probability : float
+        Probability of the central interval of the QoI's model uncertainty.
+    uncertainty : scipy.stats frozen distribution or None
+        The QoI model's error (prediction minus true value, Eq. 4).
+    uncertainty_interval : tuple of float
+        Its central interval ``(a, b)``; ``(0, 0)`` without one.
+    model_low, model_high : float
+        The range of ``values``.
+    low, high : float
+        The range once the QoI's own model uncertainty is included:
+        ``[model_low - b, model_high - a]`` (equal to the former without one).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import edmf_rs
+    >>> p = edmf_rs.predict(lambda t: 2 * t[:, 0], np.array([[1.0], [3.0]]), name="q", unit="mm")
+    >>> p.model_low, p.model_high, p.n_candidates
+    (2.0, 6.0, 2)
+    >>> print(p.summary())
+    q: 2 .. 6 mm
     """
 
     name: str
@@ -46,6 +72,24 @@ class Prognosis:
         return int(self.values.shape[0])
 
     def summary(self) -> str:
+        """One line: the range, with the candidates' range when an uncertainty widened it.
+
+        Returns
+        -------
+        str
+            E.g. ``"q: 1.5 .. 6.5 mm (candidates 2 .. 6, with the 95% interval of
+            its model uncertainty)"``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from scipy import stats
+        >>> import edmf_rs
+        >>> p = edmf_rs.predict(lambda t: t[:, 0], np.array([[1.0], [2.0]]),
+        ...                     uncertainty=stats.uniform(-0.5, 1.0), name="q")
+        >>> print(p.summary())
+        q: 0.525 .. 2.475 (candidates 1 .. 2, with the 95% interval of its model uncertainty)
+        """
         unit = f" {self.unit}" if self.unit else ""
         text = f"{self.name}: {self.low:.4g} .. {self.high:.4g}{unit}"
         if self.uncertainty is not None:
@@ -54,6 +98,22 @@ class Prognosis:
         return text
 
     def as_dict(self) -> dict:
+        """The prognosis for ``summary.json``.
+
+        Returns
+        -------
+        dict
+            ``name``, ``unit``, ``candidates``, ``model_range``, ``range``,
+            ``probability`` and ``uncertainty_interval`` (None without an
+            uncertainty).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import edmf_rs
+        >>> edmf_rs.predict(lambda t: t[:, 0], np.array([[1.0], [2.0]]), name="q").as_dict()["range"]
+        [1.0, 2.0]
+        """
         return {"name": self.name, "unit": self.unit, "candidates": self.n_candidates,
                 "model_range": [self.model_low, self.model_high], "range": [self.low, self.high],
                 "probability": self.probability if self.uncertainty is not None else None,
@@ -62,11 +122,53 @@ class Prognosis:
 
 def predict(qoi_model: Callable, candidate_parameters, *, uncertainty=None, probability: float = 0.95,
             name: str = "quantity of interest", unit: str = "") -> Prognosis:
-    """Evaluates ``qoi_model`` on the candidates' parameters (n_c, p) and gives its range.
+    """Predicts a quantity of interest with the candidate model set: its range over the candidates.
 
-    ``qoi_model`` is vectorised: (n_c, p) -> (n_c,) (or (n_c, 1)).
-    ``uncertainty`` is a scalar frozen ``scipy.stats`` distribution of the QoI
-    model's error eps_q (Eq. 4 sign: prediction minus true value), or None.
+    Every candidate model is an equally possible explanation of the
+    measurements (Sec. 3.1), so the prognosis is the range of q(theta) over
+    the candidates, widened by the QoI model's own uncertainty: with
+    ``[a, b]`` the central interval of its error holding ``probability``, the
+    range is ``[min q - b, max q - a]``.
+
+    Parameters
+    ----------
+    qoi_model : callable
+        Vectorised: (n_c, p) parameters -> (n_c,) (or (n_c, 1)) values.
+    candidate_parameters : array_like
+        The candidates' parameters (n_c, p), e.g.
+        ``result.candidate_parameters`` of `falsify_model`.
+    uncertainty : scipy.stats frozen distribution, optional
+        Scalar distribution of the QoI model's error eps_q (Eq. 4 sign:
+        prediction minus true value).
+    probability : float, default 0.95
+        Probability of the central interval of ``uncertainty``.
+    name, unit : str
+        For reports and error messages.
+
+    Returns
+    -------
+    Prognosis
+        The values and their ranges.
+
+    Raises
+    ------
+    ValueError
+        If ``candidate_parameters`` is not 2-D or empty (the model class is
+        falsified), or the QoI model returns the wrong shape or non-finite
+        values.
+    TypeError
+        If ``qoi_model`` is not callable or ``uncertainty`` is not a scalar
+        frozen distribution.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import stats
+    >>> import edmf_rs
+    >>> theta = np.array([[1.0], [2.0], [4.0]])
+    >>> p = edmf_rs.predict(lambda t: 10 * t[:, 0], theta, uncertainty=stats.norm(0, 1))
+    >>> round(p.low, 2), round(p.high, 2)
+    (8.04, 41.96)
     """
     theta = np.asarray(candidate_parameters, dtype=np.float64)
     if theta.ndim != 2:

@@ -60,9 +60,42 @@ class InstanceSample:
 
 @dataclass(frozen=True, eq=False)
 class Identification:
-    """A project's identification: the :class:`FalsificationResult`, thresholds,
-    diagnostics, and the candidates as a DataFrame (parameters and predictions,
-    indexed by instance)."""
+    """A project's identification, as returned by `Project.run`.
+
+    Attributes
+    ----------
+    project : Project
+        The project that was run.
+    combined : CombinedUncertainty
+        U_c per sensor (Eq. 4).
+    thresholds : Thresholds
+        The threshold bounds (Eqs. 5-7).
+    falsification : FalsificationResult
+        The candidate model set and per-sensor counts (Eq. 8).
+    leave_one_out : LeaveOneOut
+        Candidate set sizes with each sensor left out, and suspect sensors.
+    sensitivity : Sensitivity
+        Candidate set size against a scale factor on all uncertainties and
+        against phi.
+    candidates : pandas.DataFrame
+        The candidates' parameters and predictions, indexed by instance.
+    prognoses : tuple of Prognosis
+        The ``[[prognosis]]`` quantities over the candidates.
+    sample : InstanceSample
+        Every k-th instance, for plots.
+    elapsed : float
+        Seconds the run took.
+    model_class_falsified : bool
+        True when no candidate is left.
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> from edmf_rs import cli
+    >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+    >>> list(ident.candidates.columns[:3])
+    ['E', 'D1', 'D2']
+    """
 
     project: object
     combined: CombinedUncertainty
@@ -82,18 +115,77 @@ class Identification:
 
     def predict(self, qoi_model: Callable, uncertainty=None, *, probability: float = 0.95,
                 name: str = "quantity of interest", unit: str = "") -> Prognosis:
-        """Range of a quantity of interest over the candidates (see :mod:`edmf_rs.prognosis`)."""
+        """Range of a quantity of interest over the candidates (see `edmf_rs.predict`).
+
+        Parameters
+        ----------
+        qoi_model : callable
+            Vectorised: (n_c, p) parameters -> (n_c,) values.
+        uncertainty : scipy.stats frozen distribution, optional
+            The QoI model's error (prediction minus true value).
+        probability : float, default 0.95
+            Of the central interval of ``uncertainty``.
+        name, unit : str
+            For reports.
+
+        Returns
+        -------
+        Prognosis
+
+        Raises
+        ------
+        ValueError
+            If the model class is falsified (no candidates) or the QoI model
+            returns the wrong shape.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> q = ident.predict(lambda theta: theta[:, 0] / 1e3, name="E", unit="GPa")
+        >>> q.model_low <= 70 <= q.model_high
+        True
+        """
         return predict(qoi_model, self.falsification.candidate_parameters, uncertainty=uncertainty,
                        probability=probability, name=name, unit=unit)
 
     def parameter_ranges(self) -> dict[str, tuple[float, float] | None]:
-        """Each parameter's [min, max] over the candidates (None without candidates)."""
+        """Each parameter's [min, max] over the candidates.
+
+        Returns
+        -------
+        dict
+            Parameter name -> (min, max), or None without candidates.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> list(ident.parameter_ranges())
+        ['E']
+        """
         theta = self.falsification.candidate_parameters
         return {p.name: (float(theta[:, j].min()), float(theta[:, j].max())) if theta.shape[0] else None
                 for j, p in enumerate(self.project.parameters)}
 
     def findings(self) -> list[str]:
-        """Diagnostics in words: sensors, sensitivity, and parameters at their domain's edge."""
+        """Diagnostics in words: sensors, sensitivity, and parameters at their domain's edge.
+
+        Returns
+        -------
+        list of str
+            One sentence per finding (empty when there is nothing to say).
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> isinstance(ident.findings(), list)
+        True
+        """
         out = findings(self.leave_one_out, self.sensitivity, self.thresholds.phi)
         for p, span in zip(self.project.parameters, self.parameter_ranges().values()):
             if span is None:
@@ -108,7 +200,21 @@ class Identification:
         return out
 
     def thresholds_table(self) -> pd.DataFrame:
-        """Per sensor: measured value, U_c moments, threshold bounds and leave-one-out counts."""
+        """Per sensor: measured value, U_c moments, threshold bounds and leave-one-out counts.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per sensor (the content of ``thresholds.csv``).
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> ident.thresholds_table().shape
+        (10, 15)
+        """
         s, loo = self.project.sensors, self.leave_one_out
         return pd.DataFrame({
             "sensor": [x.name for x in s], "type": [x.type for x in s],
@@ -123,7 +229,20 @@ class Identification:
         })
 
     def summary(self) -> str:
-        """A few lines for the terminal."""
+        """A few lines for the terminal: instances, candidates, parameter ranges, findings.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> print(ident.summary().splitlines()[0])
+        Cantilever beam, scenario 2: 101 model instances, 10 sensors, phi = 0.95 (sidak correction), combined uncertainty exact (normal)
+        """
         p, r = self.project, self.falsification
         combined = "exact (normal)" if self.combined.exact else f"Monte Carlo, {p.n_samples:,} samples"
         lines = [f"{p.name}: {r.n_instances:,} model instances, {r.n_sensors} sensors, phi = {p.phi:g} "
@@ -148,7 +267,21 @@ class Identification:
         return "\n".join(lines)
 
     def summary_dict(self) -> dict:
-        """The content of summary.json."""
+        """The content of ``summary.json``.
+
+        Returns
+        -------
+        dict
+            JSON-safe (NumPy scalars as Python numbers, non-finite values as None).
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> ident.summary_dict()["instances"]
+        101
+        """
         p, r, t = self.project, self.falsification, self.thresholds
         sens = self.sensitivity
         ranges = self.parameter_ranges()
@@ -194,6 +327,31 @@ class Identification:
 
         Each file is written atomically; an earlier summary.json is removed
         first, so an interrupted write never leaves one that looks complete.
+
+        Parameters
+        ----------
+        out_dir : str or pathlib.Path
+            The output folder, created if missing.
+
+        Returns
+        -------
+        pathlib.Path
+            The output folder.
+
+        Raises
+        ------
+        OSError
+            If a file cannot be written.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> import tempfile
+        >>> out = ident.write(tempfile.mkdtemp())
+        >>> (out / "summary.json").is_file(), (out / "report.html").is_file()
+        (True, True)
         """
         from .report import html as report  # matplotlib only when writing
         from .report import plots as report_plots

@@ -3,7 +3,7 @@
 ``Project.from_toml(path)`` reads and checks the file and everything it names
 (measurements, model function, precomputed instances); ``.run()`` samples the
 parameters, streams the instances through the model and the falsification
-(Eq. 8) in batches, and returns an :class:`~edmf_rs.project_result.Identification`
+(Eq. 8) in batches, and returns an :class:`~edmf_rs.project.result.Identification`
 with the candidates, thresholds and diagnostics; ``.write(out)`` saves them.
 The ``edmf-rs run`` command is :func:`run_cli`.
 """
@@ -45,8 +45,42 @@ __all__ = ["Project", "ProjectError", "run_cli"]
 class Project:
     """A checked project: parameters and their sampling, model, sensors, uncertainty sources.
 
-    ``sensors`` are those used by the identification (``excluded`` ones are
-    in the measurements but left out). Build it with :meth:`from_toml`.
+    Build it with `from_toml` from a project file (the format is on the
+    documentation's project-file page), then `run` it.
+
+    Attributes
+    ----------
+    file : pathlib.Path
+        The project file.
+    name, description : str
+        From ``[identification]``.
+    phi : float
+        Target identification probability.
+    correction : str
+        ``"sidak"``, ``"bonferroni"`` or ``"none"``.
+    n_samples, seed : int
+        Monte Carlo samples of U_c (when a source is not normal) and their seed.
+    parameters : tuple of Parameter
+        The parameters, with their domains, in the model's column order.
+    sampling : Sampling or None
+        How the instances are drawn; None for precomputed instances.
+    sensors, excluded : tuple of Sensor
+        The sensors used by the identification, and those in the measurements
+        but left out (``exclude``).
+    uncertainty : tuple of UncertaintySource
+        The ``[[uncertainty]]`` sources, resolved against the sensors.
+    parameter_names, sensor_names : tuple of str
+        Names of the parameters and of the sensors used.
+    measured : numpy.ndarray
+        y, one value per sensor used.
+
+    Examples
+    --------
+    >>> import edmf_rs
+    >>> from edmf_rs import cli
+    >>> project = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml")
+    >>> project.parameter_names, len(project.sensor_names), project.phi
+    (('E',), 10, 0.95)
     """
 
     file: Path
@@ -69,7 +103,35 @@ class Project:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Project:
-        """Reads and checks a project file; raises :class:`ProjectError` naming the file and key."""
+        """Reads and checks a project file and everything it names.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The project file (TOML).
+
+        Returns
+        -------
+        Project
+            The checked project; the measurements are read and the model
+            function imported.
+
+        Raises
+        ------
+        ProjectError
+            On the first problem, naming the file, the key or line, and what
+            was expected (a missing file, invalid TOML, an unknown key, a value
+            out of range, a sensor no source covers, a model that cannot be
+            imported, ...).
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> project = edmf_rs.Project.from_toml(cli.EXAMPLES / "girder.toml")
+        >>> project.parameter_names
+        ('E', 'K_rot', 'k_h')
+        """
         spec = read_spec(path)
         label = str(spec.file)
         if spec.measurements_file is not None:
@@ -119,7 +181,26 @@ class Project:
         return np.array([s.value for s in self.sensors])
 
     def combined_uncertainty(self) -> CombinedUncertainty:
-        """U_c per sensor from the [[uncertainty]] sources (Eq. 4)."""
+        """U_c per sensor from the ``[[uncertainty]]`` sources (Eq. 4).
+
+        Returns
+        -------
+        CombinedUncertainty
+            Exact when every source is normal, else ``n_samples`` Monte Carlo
+            samples per sensor.
+
+        Raises
+        ------
+        ProjectError
+            If ``n_samples`` is too small for the per-sensor probability.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").combined_uncertainty().exact
+        True
+        """
         try:
             combined = combine_sources(self.uncertainty, self.measured, n_samples=self.n_samples, seed=self.seed,
                                        streams=self.kept, sensor_names=self.sensor_names)
@@ -131,7 +212,41 @@ class Project:
         return combined
 
     def run(self, *, progress: bool = True) -> Identification:
-        """Thresholds, falsification of every instance and diagnostics, in one pass."""
+        """Thresholds, falsification of every instance and diagnostics, in one pass.
+
+        Samples the parameters, evaluates the model in batches of
+        ``model.batch_size`` while falsifying (Eq. 8), and predicts the
+        ``[[prognosis]]`` quantities over the candidates.
+
+        Parameters
+        ----------
+        progress : bool, default True
+            Show a progress bar once the run lasts a few seconds.
+
+        Returns
+        -------
+        Identification
+            The falsification result, thresholds, diagnostics, candidates (a
+            DataFrame) and prognoses; ``.write(folder)`` saves the report.
+
+        Raises
+        ------
+        ProjectError
+            If precomputed predictions hold NaN (with ``nan = "raise"``) or a
+            prognosis cannot be computed.
+        ValueError
+            If the model returns the wrong shape or NaN (with ``nan = "raise"``).
+        Exception
+            Whatever the model raises, with a note naming the instances.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> identification = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> identification.falsification.n_instances, identification.model_class_falsified
+        (101, False)
+        """
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)

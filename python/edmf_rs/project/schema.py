@@ -24,7 +24,26 @@ DISTRIBUTIONS = {"normal": ("mean", "sd"), "uniform": ("low", "high")}
 class ProjectError(ValueError):
     """A project file, or a file it names, that cannot be used as it is.
 
-    The message names the file, the key or line, and what was expected.
+    The message names the file, the key or line, and what was expected;
+    ``edmf-rs run`` prints it and exits with status 2. A ``ValueError``.
+
+    Attributes
+    ----------
+    args : tuple of str
+        The message, e.g. ``"bridge.toml: identification.phi: expected a
+        probability in (0, 1), got 1.5"``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> import edmf_rs
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "bad.toml"
+    >>> _ = path.write_text("[identification]\\nphi = 1.5\\n")
+    >>> try:
+    ...     edmf_rs.Project.from_toml(path)
+    ... except edmf_rs.ProjectError as exc:
+    ...     print(str(exc).split(": ", 1)[1])
+    identification.phi: expected a probability in (0, 1), got 1.5
     """
 
 

@@ -32,7 +32,28 @@ HASHED = ("measurements", "thresholds")
 
 
 class CheckpointError(OSError):
-    """Writing a checkpoint failed; the folder keeps its previous state."""
+    """Writing a checkpoint failed; the folder keeps its previous state.
+
+    Raised by `falsify` and `falsify_model` with ``checkpoint=`` when a save
+    fails (a full disk, a folder made read-only during the run). Running the
+    same call again once the problem is fixed resumes from the last state
+    saved. An ``OSError``, so ``except OSError`` catches it too.
+
+    Attributes
+    ----------
+    errno : int
+        The operating system's error number of the failed write.
+    strerror : str
+        The message: which file could not be written, and how to resume.
+
+    Examples
+    --------
+    >>> import errno
+    >>> import edmf_rs
+    >>> exc = edmf_rs.CheckpointError(errno.ENOSPC, "checkpoint: could not write state.json")
+    >>> isinstance(exc, OSError), exc.errno == errno.ENOSPC
+    (True, True)
+    """
 
 
 def digest(*arrays) -> str:
