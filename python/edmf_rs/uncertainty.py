@@ -322,8 +322,8 @@ def distribution(name: str, params: dict):
     --------
     >>> float(distribution("lognorm", {"s": 0.25, "scale": 1.0}).median())
     1.0
-    >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()), 12)  # (a²+b²+c²-ab-ac-bc)/18
-    0.16666666666666666
+    >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()) * 6, 9)  # (a²+b²+c²-ab-ac-bc)/18
+    1.0
     """
     accepted = accepted_parameters(name)
     listed = ", ".join(accepted)
