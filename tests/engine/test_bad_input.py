@@ -82,6 +82,11 @@ def test_unknown_correction():
 def test_too_few_samples_says_how_many():
     # p = 0.95**(1/10) = 0.99488..., so 1/(1-p) = 195.5: 196 samples are needed.
     with pytest.raises(ValueError, match=r"at least 196 samples are needed"):
+        edmf_rs.threshold_bounds(np.random.default_rng(0).normal(size=(150, 10)), phi=0.95, estimator="shortest")
+    # The default window holds p with confidence 0.975: it needs P(Binom(n, p) <= n - 2) >= 0.975.
+    p = 0.95 ** 0.1
+    need = next(n for n in range(2, 10_000) if stats.binom.cdf(n - 2, n, p) >= 0.975)
+    with pytest.raises(ValueError, match=rf"at least {need} samples are needed"), pytest.warns(UserWarning):
         edmf_rs.threshold_bounds(np.random.default_rng(0).normal(size=(150, 10)), phi=0.95)
 
 
@@ -179,8 +184,8 @@ def test_a_flat_list_that_looks_per_sensor_warns():
 def test_reversed_sample_arrays_are_read_correctly():
     rng = np.random.default_rng(0)
     samples = rng.normal(size=(500, 3))
-    t = edmf_rs.threshold_bounds(samples[::-1], phi=0.8)
-    want = edmf_rs.threshold_bounds(np.ascontiguousarray(samples[::-1]), phi=0.8)
+    t = edmf_rs.threshold_bounds(samples[::-1], phi=0.8, estimator="shortest")  # the Rust core reads the view
+    want = edmf_rs.threshold_bounds(np.ascontiguousarray(samples[::-1]), phi=0.8, estimator="shortest")
     np.testing.assert_array_equal(t.low, want.low)
 
 

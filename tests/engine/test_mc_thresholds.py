@@ -207,3 +207,15 @@ def test_vectorised_normal_bounds_for_two_thousand_sensors():
     low, high = intervals.shortest_intervals(intervals.split(dist, 2000), t.probability)
     np.testing.assert_array_equal(t.low, low)
     np.testing.assert_array_equal(t.high, high)
+
+
+@given(loc=st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=30), scale=st.floats(0.0, 1e3),
+       noise=st.floats(1e-3, 10.0))
+@settings(max_examples=40, deadline=None)
+def test_vectorised_normal_combine_equals_the_per_sensor_one(loc, scale, noise):
+    loc = np.array(loc)
+    vec = edmf_rs.combine(model=stats.norm(loc, scale), measurement=stats.norm(0.5, noise))
+    per = edmf_rs.combine(model=[[stats.norm(m, scale) for m in loc]], measurement=stats.norm(0.5, noise))
+    np.testing.assert_allclose(vec.mean, per.mean, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(vec.std, per.std, rtol=1e-15)
+    np.testing.assert_allclose(vec.mean, loc - 0.5, rtol=1e-15)

@@ -24,9 +24,9 @@ def test_sample_thresholds_match_reference(samples, phi, correction):
     p = edmf_rs.sensor_probability(phi, samples.shape[1], correction)
     if samples.shape[0] < math.ceil(1 / (1 - p)):
         with pytest.raises(ValueError, match="samples are needed"):
-            edmf_rs.threshold_bounds(samples, phi, correction)
+            edmf_rs.threshold_bounds(samples, phi, correction, estimator="shortest")
         return
-    got = edmf_rs.threshold_bounds(samples, phi, correction)
+    got = edmf_rs.threshold_bounds(samples, phi, correction, estimator="shortest")  # the plain window
     want = reference.threshold_bounds(samples, phi, correction)
     np.testing.assert_array_equal(got.low, want.low)
     np.testing.assert_array_equal(got.high, want.high)
@@ -45,7 +45,7 @@ def test_skewed_and_bimodal_samples(layout):
         samples = np.asfortranarray(samples)
     elif layout == "strided":
         samples = np.repeat(samples, 2, axis=1)[:, ::2]
-    t = edmf_rs.threshold_bounds(samples, phi=0.6 ** 2)  # per-sensor probability 0.6
+    t = edmf_rs.threshold_bounds(samples, phi=0.6 ** 2, estimator="shortest")  # per-sensor probability 0.6
     want = reference.threshold_bounds(np.ascontiguousarray(samples), phi=0.6 ** 2)
     np.testing.assert_array_equal(t.low, want.low)
     np.testing.assert_array_equal(t.high, want.high)
@@ -56,7 +56,7 @@ def test_skewed_and_bimodal_samples(layout):
 
 def test_ties_in_samples_pick_the_lowest_window():
     samples = np.array([[0.0], [1.0], [2.0], [3.0]])
-    t = edmf_rs.threshold_bounds(samples, phi=0.5, correction="none")
+    t = edmf_rs.threshold_bounds(samples, phi=0.5, correction="none", estimator="shortest")
     assert (t.low[0], t.high[0]) == (0.0, 1.0)
 
 

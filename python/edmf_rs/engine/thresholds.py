@@ -322,6 +322,10 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
         low, high = _core.shortest_intervals(samples, p)
         return Thresholds(low, high, phi=phi, probability=p, correction=correction, gaussian=False,
                           method=("shortest-plain",) * n_m, n_samples=n)
+    bad = ~np.isfinite(samples)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise ValueError(f"combined: finite samples, got {samples[i, j]} in sensor column {j}")
     from .uncertainty import CombinedUncertainty as _C
 
     return _monte_carlo_bounds(_C(n_m, samples=samples, symmetric=np.zeros(n_m, dtype=bool),

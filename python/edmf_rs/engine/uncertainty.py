@@ -236,6 +236,19 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
                 stacklevel=2,
             )
 
+    if all(s[2] is not None and s[2].dist.name == "norm" for s in sources):
+        # Every source a (vectorised) normal: sum the moments as arrays, no per-sensor objects.
+        mean, var = np.zeros(n_m), np.zeros(n_m)
+        for sign, _, dist, _, name in sources:
+            loc, scale = _normal_parameters(dist, n_m)
+            mean += sign * loc
+            var += scale**2
+        if not np.all(var > 0):
+            i = int(np.flatnonzero(~(var > 0))[0])
+            raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
+        return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)),
+                                   seed=_seed_record(seed), gaussian=np.ones(n_m, dtype=bool),
+                                   symmetric=np.ones(n_m, dtype=bool))
     per_sensor = [s[1] or intervals.split(s[2], n_m) for s in sources]
     normal = [all(group[j].dist.name == "norm" for group in per_sensor) for j in range(n_m)]
     if all(normal):
@@ -290,15 +303,18 @@ def _normal_sum(sources, per_sensor, sensors) -> tuple[np.ndarray, np.ndarray]:
     return mean, np.sqrt(var)
 
 
-def _normal_parameters(dist) -> tuple[float, float]:
-    """(loc, scale) of a scalar frozen normal; scale 0 (a fixed offset) is allowed,
-    which scipy's own mean()/var() report as NaN."""
+def _normal_parameters(dist, n: int | None = None):
+    """(loc, scale) of a frozen normal, as floats, or as arrays of length n for one
+    vectorised over the sensors; scale 0 (a fixed offset) is allowed, which
+    scipy's own mean()/var() report as NaN."""
     args = dict(zip(("loc", "scale"), dist.args))
     args.update(dist.kwds)
-    loc, scale = float(args.get("loc", 0.0)), float(args.get("scale", 1.0))
-    if not (np.isfinite(loc) and np.isfinite(scale) and scale >= 0):
+    loc, scale = np.asarray(args.get("loc", 0.0), dtype=float), np.asarray(args.get("scale", 1.0), dtype=float)
+    if not (np.all(np.isfinite(loc)) and np.all(np.isfinite(scale)) and np.all(scale >= 0)):
         raise ValueError(f"model, measurement: a normal source needs a finite mean and sd >= 0, got {loc}, {scale}")
-    return loc, scale
+    if n is None:
+        return float(loc), float(scale)
+    return np.broadcast_to(loc, (n,)), np.broadcast_to(scale, (n,))
 
 
 #: Shorthand families and their parameters (besides any scipy.stats name with its own parameters).
@@ -366,8 +382,8 @@ def distribution(name: str, params: dict):
     --------
     >>> float(distribution("lognorm", {"s": 0.25, "scale": 1.0}).median())
     1.0
-    >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()), 12)  # (a²+b²+c²-ab-ac-bc)/18
-    0.166666666667
+    >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()) * 6, 9)  # (a²+b²+c²-ab-ac-bc)/18
+    1.0
     """
     accepted = accepted_parameters(name)
     listed = ", ".join(accepted)
