@@ -47,14 +47,26 @@ fn check_vector(v: &[f64], name: &'static str, n_m: usize) -> Result<()> {
         ));
     }
     if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-        return Err(EdmfError::invalid(name, format!("finite values, got {x} at sensor {i}")));
+        return Err(EdmfError::invalid(
+            name,
+            format!("finite values, got {x} at sensor {i}"),
+        ));
     }
     Ok(())
 }
 
 /// Does row `i` pass sensor `j`? (residual form, see the module docs)
 #[inline(always)]
-fn passes(mu: &Matrix<'_, f64>, sigma: &Matrix<'_, f64>, i: usize, j: usize, y: &[f64], low: &[f64], high: &[f64], c: f64) -> bool {
+fn passes(
+    mu: &Matrix<'_, f64>,
+    sigma: &Matrix<'_, f64>,
+    i: usize,
+    j: usize,
+    y: &[f64],
+    low: &[f64],
+    high: &[f64],
+    c: f64,
+) -> bool {
     let r = mu.get(i, j) - y[j];
     let margin = c * sigma.get(i, j);
     r >= low[j] - margin && r <= high[j] + margin
@@ -108,7 +120,11 @@ pub fn screen(
     // The order: rejections per sensor over the first rows, every sensor visited.
     let learn = rows.min(LEARN_ROWS);
     let rejected: Vec<u64> = (0..n_m)
-        .map(|j| (0..learn).filter(|&i| !passes(&mu, &sigma, i, j, y, low, high, c)).count() as u64)
+        .map(|j| {
+            (0..learn)
+                .filter(|&i| !passes(&mu, &sigma, i, j, y, low, high, c))
+                .count() as u64
+        })
         .collect();
     let mut order: Vec<usize> = (0..n_m).collect();
     order.sort_by(|&a, &b| rejected[b].cmp(&rejected[a]).then(a.cmp(&b)));
@@ -222,7 +238,17 @@ mod tests {
         let sigma = [0.0; 6];
         let m = Matrix::row_major(&mu, 3, 2).unwrap();
         let s = Matrix::row_major(&sigma, 3, 2).unwrap();
-        let out = screen(m, s, &[0.0, 0.0], &[-1.0, -1.0], &[1.0, 1.0], 3.0, &pool(1), &mut || false).unwrap();
+        let out = screen(
+            m,
+            s,
+            &[0.0, 0.0],
+            &[-1.0, -1.0],
+            &[1.0, 1.0],
+            3.0,
+            &pool(1),
+            &mut || false,
+        )
+        .unwrap();
         assert_eq!(out.order, vec![1, 0]);
         assert!(out.kept.is_empty());
     }
