@@ -29,6 +29,7 @@ __all__ = [
     "Prognosis",
     "Project",
     "ProjectError",
+    "adaptive_falsify",
     "baselines",
     "bayesian_posterior",
     "coverage",
@@ -51,7 +52,8 @@ __all__ = [
 __version__ = "0.1.0"
 
 # Project runs need pandas; import them on first use so `import edmf_rs` stays light.
-_LAZY = {"Project": "project", "ProjectError": "project", "Prognosis": "prognosis", "predict": "prognosis"}
+_LAZY = {"adaptive_falsify": "adaptive",
+         "Project": "project", "ProjectError": "project", "Prognosis": "prognosis", "predict": "prognosis"}
 
 
 def __getattr__(name):
