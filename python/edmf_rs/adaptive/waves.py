@@ -2,7 +2,8 @@
 
 1. A scrambled Sobol' design over the domain, run with the real model.
 2. A Gaussian process per sensor (:mod:`.emulator`), checked by leave-one-out.
-3. A fixed screening sample of the domain is screened (:mod:`.screen`, Rust):
+3. A fixed screening sample of the domain (then as many points over the box
+   around the kept ones, to resolve a small region) is screened (:mod:`.screen`, Rust):
    a point stays while, at every sensor, its emulated residual is within the
    thresholds widened by c emulator standard deviations.
 4. The next wave's real runs go to the kept region: the ends of each
@@ -178,13 +179,28 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
         return u
 
     screening = sobol_points(n_screen, p, seed + 1)
+    zoom_unit = sobol_points(n_screen, p, seed + 2)
     width = thresholds.width
     waves: list[WaveRecord] = []
     emulator = None
     optimized_at = [0]  # runs at the last hyperparameter search
 
+    def screen_set(points: np.ndarray):
+        """Kept, mean-kept (c = 0), required margin and sigma / width over ``points``."""
+        kept, mean_kept, need, ratios = [], [], np.empty(points.shape[0]), []
+        for first in range(0, points.shape[0], 8192):
+            part = points[first:first + 8192]
+            mu, sd = emulator.predict_for_screening(part, y, thresholds.low, thresholds.high, c)
+            kept.append(screen(mu, sd, y, thresholds, c)[0] + first)
+            mean_kept.append(screen(mu, np.zeros_like(sd), y, thresholds, 0.0)[0] + first)
+            need[first:first + len(part)] = required_margin(mu, sd, y, thresholds)
+            ratios.append(sd / width)
+        return np.concatenate(kept), np.concatenate(mean_kept), need, np.concatenate(ratios)
+
     def fit_and_screen(index: int, kind: str, spent: int):
-        """Refit after a wave; screen; record the wave. Returns (record, kept, mean_kept, need)."""
+        """Refit after a wave, screen, record the wave.
+
+        Returns (record, screening points used, kept, mean-kept, required margin)."""
         nonlocal emulator
         finite = np.isfinite(store.g).all(axis=1)
         problems: list[str] = []
@@ -198,43 +214,46 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                 optimized_at[0] = int(finite.sum())
             problems += emulator.problems
             validation = emulator.validate(width, c, validation_coverage)
+            if not validation.ok:
+                bad = np.flatnonzero(~validation.passed)
+                problems.append("the emulator failed leave-one-out validation at sensor(s) "
+                                + ", ".join(f"{j} (coverage {validation.coverage[j]:.2f})" for j in bad)
+                                + "; the next wave falls back to runs over the whole domain")
         except EmulatorError as exc:
             emulator, validation = None, None
-            problems.append(str(exc))
+            problems.append(f"{exc}; the next wave falls back to runs over the whole domain")
         for text in problems:
             warnings.warn(f"adaptive_falsify, wave {index}: {text}", stacklevel=3)
         n_cand = _n_candidates(store.g, y, thresholds)
         if emulator is None:
             record = WaveRecord(index, kind, spent, store.n_runs, n_cand, validated=False,
                                 problems=tuple(problems))
-            return record, None, None, None
-        kept, mean_kept, need, ratios = [], [], np.empty(n_screen), []
-        for first in range(0, n_screen, 8192):
-            part = screening[first:first + 8192]
-            mu, sd = emulator.predict_for_screening(part, y, thresholds.low, thresholds.high, c)
-            kept.append(screen(mu, sd, y, thresholds, c)[0] + first)
-            mean_kept.append(screen(mu, np.zeros_like(sd), y, thresholds, 0.0)[0] + first)
-            need[first:first + len(part)] = required_margin(mu, sd, y, thresholds)
-            ratios.append(sd / width)
-        kept, mean_kept = np.concatenate(kept), np.concatenate(mean_kept)
-        ratio = np.concatenate(ratios)
+            return record, screening, None, None, None
+        points, volume = screening, 1.0
+        kept, mean_kept, need, ratio = screen_set(points)
+        if kept.size:
+            # Zoom: a second sample as dense over the box around the kept points
+            # (widened by two sample spacings), so small kept regions are resolved.
+            spacing = 2.0 * n_screen ** (-1.0 / p)
+            lo = np.clip(screening[kept].min(axis=0) - spacing, 0.0, 1.0)
+            hi = np.clip(screening[kept].max(axis=0) + spacing, 0.0, 1.0)
+            if np.prod(hi - lo) < 0.5:
+                volume = float(np.prod(hi - lo))
+                points = lo + (hi - lo) * zoom_unit
+                kept, mean_kept, need, ratio = screen_set(points)
         over = ratio[kept] if kept.size else ratio
         sigma_ratio = float(np.percentile(over, 95, axis=0).max())
-        if not validation.ok:
-            bad = np.flatnonzero(~validation.passed)
-            problems.append("emulator failed leave-one-out validation at sensor(s) "
-                            + ", ".join(f"{j} (coverage {validation.coverage[j]:.2f})" for j in bad))
         sample = kept[np.linspace(0, kept.size - 1, min(kept.size, KEPT_SAMPLE)).round().astype(np.int64)] \
             if kept.size else kept
-        record = WaveRecord(index, kind, spent, store.n_runs, n_cand, kept_fraction=kept.size / n_screen,
-                            mean_kept_fraction=mean_kept.size / n_screen, validated=validation.ok,
+        record = WaveRecord(index, kind, spent, store.n_runs, n_cand, kept_fraction=volume * kept.size / n_screen,
+                            mean_kept_fraction=volume * mean_kept.size / n_screen, validated=validation.ok,
                             loo_error=validation.error, loo_coverage=validation.coverage, sigma_ratio=sigma_ratio,
-                            min_required_c=float(need.min()), kept_sample=to_domain(screening[sample]),
+                            min_required_c=float(need.min()), kept_sample=to_domain(points[sample]),
                             problems=tuple(problems))
-        return record, kept, mean_kept, need
+        return record, points, kept, mean_kept, need
 
     spent = run(domain_design(n_initial), 0)
-    record, kept, mean_kept, need = fit_and_screen(0, "initial", spent)
+    record, points, kept, mean_kept, need = fit_and_screen(0, "initial", spent)
     waves.append(record)
     stop_reason = "max_waves"
     for index in range(1, max_waves + 1):
@@ -252,24 +271,24 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                 break
         if record.validated and kept.size:
             kind = "adaptive"
-            u_next = _spread(screening, kept, mean_kept, store.u, wave_size)
+            u_next = _spread(points, kept, mean_kept, store.u, wave_size)
         elif record.validated:  # nothing kept: probe the most nearly consistent points
             kind = "adaptive"
-            u_next = _closest(screening, need, store.u, wave_size)
+            u_next = _closest(points, need, store.u, wave_size)
         else:
             kind = "fallback"
             u_next = domain_design(wave_size)
         spent = run(u_next, index)
-        record, kept, mean_kept, need = fit_and_screen(index, kind, spent)
+        record, points, kept, mean_kept, need = fit_and_screen(index, kind, spent)
         waves.append(record)
 
     # Final wave: spread over the kept region of the last emulator; the model decides.
     final_index = len(waves)
     if record.validated and kept.size:
-        u_final = _spread(screening, kept, mean_kept, store.u, wave_size)
+        u_final = _spread(points, kept, mean_kept, store.u, wave_size)
         kind = "final"
     elif record.validated:
-        u_final = _closest(screening, need, store.u, wave_size)
+        u_final = _closest(points, need, store.u, wave_size)
         kind = "final"
     else:
         u_final = domain_design(wave_size)
