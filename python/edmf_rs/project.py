@@ -124,6 +124,10 @@ class Project:
 
     def run(self, *, progress: bool = True) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass."""
+        if getattr(self.sampling, "method", None) == "adaptive":  # issue 16: waves of real runs
+            from .adaptive.project import run_adaptive
+
+            return run_adaptive(self, progress=progress)
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)
