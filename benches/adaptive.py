@@ -4,9 +4,12 @@ For the girder (3 parameters) and a 5-parameter variant (plus the right
 support's rotational stiffness and a truck-load factor), finds the smallest
 dense Sobol' run whose candidate ranges (per parameter, in % of the domain)
 and prognosis interval (midspan deflection under a lane load, in % of its
-width) are within 2 % of a reference dense run, and compares the real model
-runs it needs with those of ``edmf_rs.adaptive_falsify``. Everything is
-measured in one run, side by side.
+width) are within 2 % of the best known ones, and compares the real model
+runs it needs with those of ``edmf_rs.adaptive_falsify``. Every candidate of
+either method passes Eq. 8 on a real model run, so the true ranges hold the
+union of both methods' candidates: "best known" is that union (a dense run
+of 2^17 instances and the adaptive run). Everything is measured in one run,
+side by side.
 
     python benches/adaptive.py [--reference-log2 17] [--n-screen 65536] [--out benches/results-adaptive.txt]
 """
@@ -90,11 +93,21 @@ def main():
         theta = sobol(params, 2**args.reference_log2, seed=42).all()
         ref = edmf_rs.falsify_model(model, theta, y, thresholds, progress=False)
         ref_cpu = time.process_time() - t0
-        ref_ranges = unit_ranges(ref.candidate_parameters, params)
-        q = qoi(ref.candidate_parameters)
+        budget = 40 * len(params) + 300
+        t0 = time.process_time()
+        r = edmf_rs.adaptive_falsify(model, params, y, thresholds, budget=budget, n_screen=args.n_screen, seed=0)
+        cpu = time.process_time() - t0
+        union = np.vstack([ref.candidate_parameters, r.candidate_parameters])
+        ref_ranges = unit_ranges(union, params)
+        q = qoi(union)
         ref_q = (q.min(), q.max())
-        lines.append(f"\n{name}: reference {theta.shape[0]:,} runs, {ref.n_candidates} candidates, "
-                     f"{ref_cpu:.1f} s CPU; prognosis {ref_q[0]:.3f} .. {ref_q[1]:.3f} mm")
+        lines.append(f"\n{name}: dense reference {theta.shape[0]:,} runs, {ref.n_candidates} candidates, "
+                     f"{ref_cpu:.1f} s CPU; best known prognosis interval {ref_q[0]:.3f} .. {ref_q[1]:.3f} mm")
+        dr, dq = compare(ref.candidate_parameters, qoi, params, ref_ranges, ref_q)
+        reference_meets = dr <= 2 and dq <= 2
+        first_line = len(lines) - 1
+        lines.append(f"  dense 2^{args.reference_log2} = {theta.shape[0]:>7,} runs: {ref.n_candidates:>5} candidates, "
+                     f"ranges off by {dr:6.2f} % of the domain, prognosis off by {dq:6.2f} % of its width")
         needed = None
         for k in range(8, args.reference_log2):
             part = edmf_rs.falsify(model(theta[:2**k]), y, thresholds, progress=False)
@@ -103,10 +116,8 @@ def main():
                          f"{dr:6.2f} % of the domain, prognosis off by {dq:6.2f} % of its width")
             if needed is None and dr <= 2 and dq <= 2:
                 needed = 2**k
-        budget = 40 * len(params) + 300
-        t0 = time.process_time()
-        r = edmf_rs.adaptive_falsify(model, params, y, thresholds, budget=budget, n_screen=args.n_screen, seed=0)
-        cpu = time.process_time() - t0
+        if needed is None and reference_meets:
+            needed = theta.shape[0]
         dr, dq = compare(r.candidate_parameters, qoi, params, ref_ranges, ref_q)
         ok = "meets" if dr <= 2 and dq <= 2 else "MISSES"
         lines.append(f"  adaptive: {r.n_runs} runs in {len(r.waves)} waves (budget {budget}, n_screen "
@@ -122,9 +133,9 @@ def main():
             lines.append(f"  dense Sobol' needs {needed:,} runs for the 2 % target: adaptive used "
                          f"{r.n_runs / needed:.3f} of that ({needed / r.n_runs:.1f} x fewer runs)")
         else:
-            lines.append(f"  no dense run below the reference met the 2 % target; adaptive used "
-                         f"{r.n_runs / theta.shape[0]:.4f} of the reference's runs")
-        print("\n".join(lines[-(len(r.waves) + 4):]), flush=True)
+            lines.append(f"  no dense run up to 2^{args.reference_log2} met the 2 % target; adaptive used "
+                         f"{r.n_runs / theta.shape[0]:.4f} of 2^{args.reference_log2} runs")
+        print("\n".join(lines[first_line:]), flush=True)
     text = "\n".join(lines) + "\n"
     print(text)
     with open(args.out, "w") as fh:

@@ -106,5 +106,5 @@ def test_bounds_as_an_array_and_log_scales():
     k = np.log10(r.candidate_parameters[:, 0])
     assert r.n_candidates > 0 and np.all(np.abs(k - 3.0) <= 0.1 + 1e-9)
     r2 = adaptive_falsify(lambda th: th[:, :1] + th[:, 1:], np.array([[0.0, 1.0], [0.0, 1.0]]), [1.0],
-                          edmf_rs.Thresholds([-0.05], [0.05]), budget=80, n_screen=2**12)
+                          edmf_rs.Thresholds([-0.05], [0.05]), budget=100, n_screen=2**12)
     assert r2.n_candidates > 0 and r2.parameters[0].name == "theta0"

@@ -63,7 +63,7 @@ def _real(value, name: str, low: float, high: float = math.inf) -> float:
 
 def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Thresholds, *, budget: int,
                      n_initial: int | None = None, wave_size: int | None = None, n_screen: int = 10**6,
-                     c: float = 3.0, seed: int = 0, max_waves: int = 20, volume_tolerance: float = 0.05,
+                     c: float = 3.0, seed: int = 0, final_size: int | None = None, max_waves: int = 20, volume_tolerance: float = 0.05,
                      sigma_tolerance: float = 0.05, validation_coverage: float = 0.9,
                      nan: str = "raise") -> AdaptiveResult:
     """EDMF with an emulator steering where the real model runs (issue 16).
@@ -82,7 +82,11 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     n_initial
         Runs of the initial Sobol' design (default 20 x p; at least p + 1).
     wave_size
-        Runs per wave (default 10 x p); the final wave has as many.
+        Runs per wave (default 10 x p).
+    final_size
+        Runs of the final wave spread over the kept region (default
+        2 x wave_size; fewer if the budget has fewer left): the candidate
+        set's edges, and so the ranges and the prognosis, come from them.
     n_screen
         Points of the screening sample (a fixed scrambled Sobol' sample).
     c
@@ -146,9 +150,11 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
         raise ValueError(f"budget: expected at least n_initial + wave_size = {n_initial} + {wave_size} = "
                          f"{n_initial + wave_size} real runs (the initial design and one wave), got {budget}; "
                          "raise budget or lower n_initial or wave_size")
-    if budget < n_initial + 2 * wave_size:
+    final_size = 2 * wave_size if final_size is None else positive_int(final_size, "final_size")
+    if budget < n_initial + wave_size + final_size:
         warnings.warn(f"budget: {budget} runs leave room for the initial design and the final wave only, no "
-                      f"adaptive wave between (needs {n_initial + 2 * wave_size})", stacklevel=2)
+                      f"adaptive wave between (needs n_initial + wave_size + final_size = "
+                      f"{n_initial + wave_size + final_size})", stacklevel=2)
     n_screen = positive_int(n_screen, "n_screen")
     c = _real(c, "c", 0.0)
     volume_tolerance = _real(volume_tolerance, "volume_tolerance", 0.0, 1.0)
@@ -184,17 +190,21 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     waves: list[WaveRecord] = []
     emulator = None
     optimized_at = [0]  # runs at the last hyperparameter search
+    mean_at_kept = [None]  # the emulator's mean at the kept points of the last screening
 
     def screen_set(points: np.ndarray):
         """Kept, mean-kept (c = 0), required margin and sigma / width over ``points``."""
-        kept, mean_kept, need, ratios = [], [], np.empty(points.shape[0]), []
+        kept, mean_kept, need, ratios, mu_kept = [], [], np.empty(points.shape[0]), [], []
         for first in range(0, points.shape[0], 8192):
             part = points[first:first + 8192]
             mu, sd = emulator.predict_for_screening(part, y, thresholds.low, thresholds.high, c)
-            kept.append(screen(mu, sd, y, thresholds, c)[0] + first)
+            local = screen(mu, sd, y, thresholds, c)[0]
+            kept.append(local + first)
+            mu_kept.append(mu[local])
             mean_kept.append(screen(mu, np.zeros_like(sd), y, thresholds, 0.0)[0] + first)
             need[first:first + len(part)] = required_margin(mu, sd, y, thresholds)
             ratios.append(sd / width)
+        mean_at_kept[0] = np.concatenate(mu_kept)
         return np.concatenate(kept), np.concatenate(mean_kept), need, np.concatenate(ratios)
 
     def fit_and_screen(index: int, kind: str, spent: int):
@@ -257,7 +267,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     waves.append(record)
     stop_reason = "max_waves"
     for index in range(1, max_waves + 1):
-        if store.n_runs + 2 * wave_size > budget:
+        if store.n_runs + wave_size + final_size > budget:
             stop_reason = "budget"
             break
         if record.validated and len(waves) >= 2 and waves[-2].validated:
@@ -271,7 +281,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                 break
         if record.validated and kept.size:
             kind = "adaptive"
-            u_next = _spread(points, kept, mean_kept, store.u, wave_size)
+            u_next = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, wave_size)
         elif record.validated:  # nothing kept: probe the most nearly consistent points
             kind = "adaptive"
             u_next = _closest(points, need, store.u, wave_size)
@@ -284,15 +294,14 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
 
     # Final wave: spread over the kept region of the last emulator; the model decides.
     final_index = len(waves)
+    n_final = min(final_size, budget - store.n_runs)
     if record.validated and kept.size:
-        u_final = _spread(points, kept, mean_kept, store.u, wave_size)
-        kind = "final"
+        u_final = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, n_final)
     elif record.validated:
-        u_final = _closest(points, need, store.u, wave_size)
-        kind = "final"
+        u_final = _closest(points, need, store.u, n_final)
     else:
-        u_final = domain_design(wave_size)
-        kind = "final"
+        u_final = domain_design(n_final)
+    kind = "final"
     spent = run(u_final, final_index)
     waves.append(WaveRecord(final_index, kind, spent, store.n_runs, _n_candidates(store.g, y, thresholds)))
 
@@ -309,14 +318,19 @@ def _n_candidates(g: np.ndarray, y: np.ndarray, t: Thresholds) -> int:
     return int(((r >= t.low) & (r <= t.high)).all(axis=1).sum())
 
 
-def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, runs: np.ndarray, k: int) -> np.ndarray:
-    """k points of the kept region: each parameter's range ends where the
-    emulator's mean passes Eq. 8 (of the kept region if none does), then
-    greedy farthest points from every run."""
-    ends_from = mean_kept if mean_kept.size else kept
-    ends = ends_from[extremes(screening[ends_from])]
-    first = np.searchsorted(kept, ends)
-    first = first[(first < kept.size) & (kept[np.minimum(first, kept.size - 1)] == ends)]
+def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_kept: np.ndarray,
+            runs: np.ndarray, k: int) -> np.ndarray:
+    """k points of the kept region: where the emulator's mean passes Eq. 8 (or,
+    if nowhere, over the kept region), the ends of each parameter's range and
+    of each sensor's predicted range (a quantity of interest usually follows
+    some sensor, so its prognosis interval ends near theirs), then greedy
+    farthest points from every run."""
+    at = np.searchsorted(kept, mean_kept) if mean_kept.size else np.arange(kept.size)
+    at = at[(at < kept.size) & (kept[np.minimum(at, kept.size - 1)] == (mean_kept if mean_kept.size else kept))]
+    if at.size == 0:
+        at = np.arange(kept.size)
+    ends = np.unique(np.concatenate([extremes(screening[kept[at]]), extremes(mu_kept[at])]))
+    first = at[ends]
     picked = farthest_points(screening[kept], runs, k, first=first)
     return screening[kept[picked]]
 
