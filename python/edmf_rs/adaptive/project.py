@@ -23,13 +23,15 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from ..atomic import write_bytes, write_text
+from ..project_result import Identification, _clean
 from .result import AdaptiveResult
 from .waves import adaptive_falsify
 
@@ -113,65 +115,41 @@ def run_adaptive(project, *, progress: bool = True):
     if falsification.n_candidates:
         prognoses = tuple(project._prognosis(spec, func, falsification.candidate_parameters)
                           for spec, func in project.prognosis)
-    Identification = _identification_class()
     ident = Identification(project=project, combined=combined, thresholds=thresholds, falsification=falsification,
                            leave_one_out=leave_one_out(falsification, project.sensor_names),
                            sensitivity=tracker.finish(), candidates=candidates, prognoses=prognoses,
                            sample=sample.finish(falsification.candidate_mask), elapsed=time.perf_counter() - start)
-    from . import project as module
-
-    return module.AdaptiveIdentification(**{f: getattr(ident, f) for f in ident.__dataclass_fields__},
-                                         adaptive=result)
+    return AdaptiveIdentification(**{f: getattr(ident, f) for f in ident.__dataclass_fields__}, adaptive=result)
 
 
-def _identification_class():
-    from ..project_result import Identification
+@dataclass(frozen=True, eq=False)
+class AdaptiveIdentification(Identification):
+    """An :class:`~edmf_rs.project_result.Identification` from adaptive
+    sampling: ``adaptive`` records the waves; summary.json gains an
+    ``adaptive`` entry and the report an "Adaptive sampling" section."""
 
-    return Identification
+    adaptive: AdaptiveResult | None = None
 
+    def summary(self) -> str:
+        return super().summary() + "\n" + self.adaptive.summary()
 
-def _make_class():
-    Identification = _identification_class()
+    def summary_dict(self) -> dict:
+        out = super().summary_dict()
+        out["adaptive"] = _clean(self.adaptive.as_dict())
+        return out
 
-    @dataclass(frozen=True, eq=False)
-    class AdaptiveIdentification(Identification):
-        """An :class:`Identification` from adaptive sampling: ``adaptive`` records the waves."""
+    def write(self, out_dir) -> Path:
+        from .. import report_plots
 
-        adaptive: AdaptiveResult | None = None
-
-        def summary(self) -> str:
-            return super().summary() + "\n" + self.adaptive.summary()
-
-        def summary_dict(self) -> dict:
-            from ..project_result import _clean
-
-            out = super().summary_dict()
-            out["adaptive"] = _clean(self.adaptive.as_dict())
-            return out
-
-        def write(self, out_dir) -> Path:
-            from .. import report_plots
-            from ..atomic import write_bytes, write_text
-
-            out = super().write(out_dir)
-            png = report_plots._png(waves_figure(self))
-            write_bytes(out / "adaptive_waves.png", png)
-            html = (out / "report.html").read_text()
-            html = html.replace("<h2>Parameters</h2>", waves_section(self, png) + "<h2>Parameters</h2>", 1)
-            (out / "summary.json").unlink(missing_ok=True)  # summary.json last: a complete folder
-            write_text(out / "report.html", html)
-            write_text(out / "summary.json", json.dumps(self.summary_dict(), indent=2) + "\n")
-            return out
-
-    return AdaptiveIdentification
-
-
-def __getattr__(name):
-    if name == "AdaptiveIdentification":
-        cls = _make_class()
-        globals()[name] = cls
-        return cls
-    raise AttributeError(name)
+        out = super().write(out_dir)
+        png = report_plots._png(waves_figure(self))
+        write_bytes(out / "adaptive_waves.png", png)
+        html = (out / "report.html").read_text()
+        html = html.replace("<h2>Parameters</h2>", waves_section(self, png) + "<h2>Parameters</h2>", 1)
+        (out / "summary.json").unlink(missing_ok=True)  # summary.json last: a complete folder
+        write_text(out / "report.html", html)
+        write_text(out / "summary.json", json.dumps(self.summary_dict(), indent=2) + "\n")
+        return out
 
 
 def waves_section(ident, png: bytes) -> str:
