@@ -50,10 +50,10 @@ def analytic_run():
 def test_analytic_candidates_are_real_and_match_a_dense_run(analytic_run):
     y, result = analytic_run
     assert_no_false_candidate(result, y, THRESHOLDS)
-    dense, n_dense = dense_ranges(analytic, PARAMS, y, THRESHOLDS, 2**17)
+    dense, n_dense = dense_ranges(analytic, PARAMS, y, THRESHOLDS, 2**18)
     assert n_dense > 100 and result.n_candidates > 10
     np.testing.assert_allclose(_unit_ranges(result.candidate_parameters, PARAMS), dense, atol=0.02)
-    assert result.n_runs <= 300 and result.n_runs * 10 <= 2**17
+    assert result.n_runs <= 300 and result.n_runs * 10 <= 2**18
 
 
 def test_every_run_is_recorded_once_and_every_wave_reported(analytic_run):

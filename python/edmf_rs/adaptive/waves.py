@@ -192,6 +192,11 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     optimized_at = [0]  # runs at the last hyperparameter search
     mean_at_kept = [None]  # the emulator's mean at the kept points of the last screening
 
+    def mean_passes(u: np.ndarray) -> np.ndarray:
+        """Eq. 8 on the current emulator's mean."""
+        r = np.column_stack([emulator._mean(j, u) for j in range(n_m)]) - y
+        return ((r >= thresholds.low) & (r <= thresholds.high)).all(axis=1)
+
     def screen_set(points: np.ndarray):
         """Kept, mean-kept (c = 0), required margin and sigma / width over ``points``."""
         kept, mean_kept, need, ratios, mu_kept = [], [], np.empty(points.shape[0]), [], []
@@ -281,7 +286,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                 break
         if record.validated and kept.size:
             kind = "adaptive"
-            u_next = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, wave_size)
+            u_next = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, wave_size, mean_passes)
         elif record.validated:  # nothing kept: probe the most nearly consistent points
             kind = "adaptive"
             u_next = _closest(points, need, store.u, wave_size)
@@ -296,7 +301,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     final_index = len(waves)
     n_final = min(final_size, budget - store.n_runs)
     if record.validated and kept.size:
-        u_final = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, n_final)
+        u_final = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, n_final, mean_passes)
     elif record.validated:
         u_final = _closest(points, need, store.u, n_final)
     else:
@@ -319,20 +324,54 @@ def _n_candidates(g: np.ndarray, y: np.ndarray, t: Thresholds) -> int:
 
 
 def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_kept: np.ndarray,
-            runs: np.ndarray, k: int) -> np.ndarray:
+            runs: np.ndarray, k: int, mean_passes: Callable | None = None) -> np.ndarray:
     """k points of the kept region: where the emulator's mean passes Eq. 8 (or,
-    if nowhere, over the kept region), the ends of each parameter's range and
-    of each sensor's predicted range (a quantity of interest usually follows
-    some sensor, so its prognosis interval ends near theirs), then greedy
-    farthest points from every run."""
+    if nowhere, over the kept region), the ends of each parameter's range
+    (pushed along that parameter's axis to where the mean stops passing, by
+    bisection: the screening sample alone resolves them only to its spacing)
+    and of each sensor's predicted range (a quantity of interest usually
+    follows some sensor, so its prognosis interval ends near theirs), then
+    greedy farthest points from every run."""
     at = np.searchsorted(kept, mean_kept) if mean_kept.size else np.arange(kept.size)
     at = at[(at < kept.size) & (kept[np.minimum(at, kept.size - 1)] == (mean_kept if mean_kept.size else kept))]
     if at.size == 0:
         at = np.arange(kept.size)
-    ends = np.unique(np.concatenate([extremes(screening[kept[at]]), extremes(mu_kept[at])]))
-    first = at[ends]
-    picked = farthest_points(screening[kept], runs, k, first=first)
-    return screening[kept[picked]]
+    region = screening[kept[at]]
+    p = region.shape[1]
+    lows, highs = region.argmin(axis=0), region.argmax(axis=0)
+    ends = np.vstack([region[lows], region[highs]])
+    if mean_passes is not None and mean_kept.size:
+        axes = np.concatenate([np.arange(p), np.arange(p)])
+        signs = np.concatenate([-np.ones(p), np.ones(p)])
+        ends = _push(ends, axes, signs, mean_passes)
+    sensor_ends = at[extremes(mu_kept[at])]
+    pool = np.vstack([ends, screening[kept]])
+    first = np.concatenate([np.arange(ends.shape[0]), ends.shape[0] + sensor_ends])
+    picked = farthest_points(pool, runs, k, first=first)
+    return pool[picked]
+
+
+def _push(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callable, steps: int = 24) -> np.ndarray:
+    """Moves each point along its axis (direction ``sign``) as far as ``passes``
+    stays true, by bisection between where it holds (the start) and the
+    domain's edge; returns the last passing positions."""
+    rows = np.arange(points.shape[0])
+    room = np.where(signs > 0, 1.0 - points[rows, axes], points[rows, axes])
+    good, bad = np.zeros(len(rows)), room.copy()
+
+    def moved(t):
+        out = points.copy()
+        out[rows, axes] += signs * t
+        return np.clip(out, 0.0, 1.0)
+
+    at_edge = passes(moved(room))
+    good[at_edge] = room[at_edge]
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
+        ok = passes(moved(mid)) & ~at_edge
+        good = np.where(ok, mid, good)
+        bad = np.where(ok | at_edge, bad, mid)
+    return moved(good)
 
 
 def _closest(screening: np.ndarray, need: np.ndarray, runs: np.ndarray, k: int) -> np.ndarray:
