@@ -18,6 +18,7 @@ __version__ = "0.1.0"
 
 from . import examples, reference
 from ._core import get_num_threads, set_num_threads
+from .adaptive import adaptive_falsify
 from .engine.falsify import falsify
 from .engine.model import falsify_model
 from .engine.result import FalsificationResult, concatenate
@@ -45,6 +46,7 @@ __all__ = [
     "Project",
     "ProjectError",
     "Thresholds",
+    "adaptive_falsify",
     "baselines",
     "bayesian_posterior",
     "combine",

@@ -5,6 +5,7 @@
 //! - [`kernel`] and [`falsifier`]: the falsification rule (Eq. 8) over millions of
 //!   model instances, in parallel and streaming, deterministic whatever the
 //!   thread count and chunking.
+//! - [`screening`]: emulator screening for adaptive EDMF (Eq. 8 widened by c sigma).
 //! - [`ellipse`]: Mahalanobis distances for the ellipsoidal-bounds comparison (Eq. 9).
 //!
 //! No Python here: the `edmf_rs` package wraps this crate through a thin PyO3 layer.
@@ -16,6 +17,7 @@ pub mod error;
 pub mod falsifier;
 pub mod kernel;
 pub mod matrix;
+pub mod screening;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 #[cfg(test)]
@@ -26,4 +28,5 @@ pub use error::{EdmfError, Result};
 pub use falsifier::{Falsifier, Mode};
 pub use kernel::{Isa, Prediction, Tally};
 pub use matrix::Matrix;
+pub use screening::{screen, Screened};
 pub use thresholds::{min_samples, shortest_interval, shortest_intervals, Thresholds};

@@ -4,10 +4,9 @@ what it gives, what it raises, and a short example."""
 import inspect
 import re
 
+import edmf_rs
 import pytest
 from api_pages import documented_objects
-
-import edmf_rs
 
 OBJECTS = documented_objects()
 

@@ -20,6 +20,7 @@ import pandas as pd
 
 from ..engine.borderline import BorderlineCounter
 from ..engine.model import falsify_model
+from ..engine.sampling import Parameter, Sampling
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
 from .diagnostics import SensitivityTracker, leave_one_out
@@ -34,7 +35,6 @@ from .inputs import (
 )
 from .prognosis import predict
 from .result import Identification, PlotSample
-from .sampling import Parameter, Sampling
 from .schema import ModelSpec, PrognosisSpec, ProjectError, Sensor, read_spec
 from .sources import UncertaintySource, combine_sources, frozen, resolve_sources
 
@@ -214,7 +214,8 @@ class Project:
     def run(self, *, progress: bool = True) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass.
 
-        Samples the parameters, evaluates the model in batches of
+        Samples the parameters (or, with ``method = "adaptive"``, runs EDMF in
+        waves: `edmf_rs.adaptive_falsify`), evaluates the model in batches of
         ``model.batch_size`` while falsifying (Eq. 8), and predicts the
         ``[[prognosis]]`` quantities over the candidates.
 
@@ -247,6 +248,10 @@ class Project:
         >>> identification.falsification.n_instances, identification.model_class_falsified
         (101, False)
         """
+        if getattr(self.sampling, "method", None) == "adaptive":  # waves of real runs (issue 16)
+            from .adaptive import run_adaptive
+
+            return run_adaptive(self, progress=progress)
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)

@@ -14,8 +14,8 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..engine.sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
 from ..engine.thresholds import CORRECTIONS
-from .sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
 
 _MISSING = object()
 DISTRIBUTIONS = {"normal": ("mean", "sd"), "uniform": ("low", "high")}
@@ -264,8 +264,12 @@ def _parameters(root: Table) -> tuple[Parameter, ...]:
 
 def _sampling(root: Table, parameters: tuple[Parameter, ...]) -> Sampling:
     t = root.table("sampling")
+    if t.data.get("method") == "adaptive":  # issue 16: options read by the adaptive package
+        from .adaptive import adaptive_sampling
+
+        return adaptive_sampling(t, parameters)
     t.check_keys(("method", "n", "points", "seed"))
-    method = t.get("method", "choice", choices=METHODS)
+    method = t.get("method", "choice", choices=(*METHODS, "adaptive"))
     if method == "grid":
         if "n" in t.data:
             raise t.error("n", "no n for a grid (give points = {NAME = count})", t.data["n"])

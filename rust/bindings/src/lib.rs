@@ -6,6 +6,7 @@
 //! package; the core re-checks everything it relies on.
 
 mod pool;
+mod screening;
 mod views;
 
 use edmf_core::{EdmfError, Mode, Thresholds};
@@ -184,5 +185,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pool::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(pool::get_num_threads, m)?)?;
     m.add_class::<Falsifier>()?;
+    m.add_function(wrap_pyfunction!(screening::screen_emulator, m)?)?;
     Ok(())
 }

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from edmf_rs.project.sampling import Parameter, grid, latin_hypercube, sobol
+from edmf_rs.engine.sampling import Parameter, grid, latin_hypercube, sobol
 
 E = Parameter("E", 20e3, 100e3, unit="MPa")
 K = Parameter("K", 1e8, 1e12, scale="log")

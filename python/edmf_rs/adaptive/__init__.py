@@ -1,0 +1,13 @@
+"""Adaptive EDMF (issue 16): waves of real model runs steered by per-sensor
+Gaussian-process emulators; the emulator proposes, the model decides (Eq. 8).
+
+:func:`adaptive_falsify` is the entry point (also ``edmf_rs.adaptive_falsify``).
+"""
+
+from .emulator import EmulatorError, SensorEmulators, Validation
+from .result import AdaptiveResult, WaveRecord
+from .screen import screen, screen_reference
+from .waves import adaptive_falsify
+
+__all__ = ["AdaptiveResult", "EmulatorError", "SensorEmulators", "Validation", "WaveRecord", "adaptive_falsify",
+           "screen", "screen_reference"]

@@ -1,0 +1,127 @@
+"""Where to run the model next: space-filling designs in the unit cube, and
+the record of every real run (issue 16, steps 1 and 4)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.spatial import cKDTree
+from scipy.stats import qmc
+
+#: Kept points considered by the farthest-point selection (a deterministic
+#: stride through them beyond this): the selection costs O(pool x picks).
+POOL = 20_000
+
+
+def sobol_points(n: int, d: int, seed: int, skip: int = 0) -> np.ndarray:
+    """Points ``skip .. skip + n - 1`` of a scrambled Sobol' sequence in [0, 1)^d.
+
+    Examples
+    --------
+    >>> sobol_points(4, 2, seed=0).shape
+    (4, 2)
+    >>> bool((sobol_points(3, 2, 0, skip=1) == sobol_points(4, 2, 0)[1:]).all())
+    True
+    """
+    try:
+        engine = qmc.Sobol(d, rng=seed)
+    except TypeError:  # SciPy < 1.15 names it seed
+        engine = qmc.Sobol(d, seed=seed)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*balance properties.*")
+        if skip:
+            engine.fast_forward(skip)
+        return engine.random(n)
+
+
+def farthest_points(pool: np.ndarray, existing: np.ndarray, k: int, first: np.ndarray | None = None) -> np.ndarray:
+    """Greedy maximin selection: ``k`` rows of ``pool``, each the farthest from
+    the runs so far (``existing``) and the rows already picked.
+
+    ``first`` are pool rows taken before the greedy picks (e.g. the kept
+    region's extremes). Ties go to the lowest index, so the choice is
+    deterministic. Rows at distance 0 from a run are never picked (no run is
+    repeated); fewer than ``k`` rows come back when the pool runs out.
+
+    Examples
+    --------
+    >>> pool = np.array([[0.0], [0.1], [0.5], [1.0]])
+    >>> farthest_points(pool, np.array([[0.0]]), 2).tolist()
+    [3, 2]
+    """
+    if pool.shape[0] > POOL:
+        pool_index = np.linspace(0, pool.shape[0] - 1, POOL).round().astype(np.int64)
+    else:
+        pool_index = np.arange(pool.shape[0])
+    candidates = pool[pool_index]
+    if existing.shape[0]:
+        dist = cKDTree(existing).query(candidates, k=1)[0]
+    else:
+        dist = np.full(candidates.shape[0], np.inf)
+    picked: list[int] = []
+    forced = [] if first is None else [int(i) for i in first]
+    for i in forced:
+        where = np.flatnonzero(pool_index == i)
+        position = where[0] if where.size else None
+        if position is None:  # an extreme outside the strided pool: add it
+            candidates = np.vstack([candidates, pool[i]])
+            pool_index = np.append(pool_index, i)
+            row = pool[i]
+            d = cKDTree(existing).query(row[None], k=1)[0][0] if existing.shape[0] else np.inf
+            dist = np.append(dist, d)
+            position = candidates.shape[0] - 1
+        if dist[position] > 0 and len(picked) < k:
+            picked.append(position)
+            dist = np.minimum(dist, np.linalg.norm(candidates - candidates[position], axis=1))
+    while len(picked) < k:
+        j = int(np.argmax(dist))
+        if not dist[j] > 0:
+            break
+        picked.append(j)
+        dist = np.minimum(dist, np.linalg.norm(candidates - candidates[j], axis=1))
+    return pool_index[np.array(picked, dtype=np.int64)]
+
+
+def extremes(points: np.ndarray) -> np.ndarray:
+    """Indices of the rows with the smallest and largest value of each column
+    (the ends of each parameter's range), without repeats."""
+    if points.shape[0] == 0:
+        return np.empty(0, np.int64)
+    ends = np.concatenate([points.argmin(axis=0), points.argmax(axis=0)])
+    return np.unique(ends)
+
+
+class RunStore:
+    """Every real model run: parameters (unit cube and domain), outputs, and
+    the wave that asked for it. A parameter row already run is never run
+    again: its stored outputs are returned."""
+
+    def __init__(self, n_params: int, n_sensors: int):
+        self.u = np.empty((0, n_params))
+        self.theta = np.empty((0, n_params))
+        self.g = np.empty((0, n_sensors))
+        self.wave = np.empty(0, np.int64)
+        self._index: dict[bytes, int] = {}
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.theta.shape[0])
+
+    def new_rows(self, theta: np.ndarray) -> np.ndarray:
+        """Indices of the rows of ``theta`` not run yet (first occurrence only)."""
+        seen, keep = set(), []
+        for i, row in enumerate(np.ascontiguousarray(theta, dtype=np.float64)):
+            key = row.tobytes()
+            if key not in self._index and key not in seen:
+                seen.add(key)
+                keep.append(i)
+        return np.array(keep, dtype=np.int64)
+
+    def add(self, u: np.ndarray, theta: np.ndarray, g: np.ndarray, wave: int) -> None:
+        for i, row in enumerate(np.ascontiguousarray(theta, dtype=np.float64)):
+            self._index[row.tobytes()] = self.n_runs + i
+        self.u = np.vstack([self.u, u])
+        self.theta = np.vstack([self.theta, theta])
+        self.g = np.vstack([self.g, g])
+        self.wave = np.concatenate([self.wave, np.full(theta.shape[0], wave, np.int64)])
