@@ -294,7 +294,7 @@ def test_precomputed_columns_must_match_the_sensors(tmp_path):
     toml = BASE.replace('[sampling]\nmethod = "grid"\npoints = { a = 21, b = 21 }\n', "").replace(
         'function = "lin_model:predict"', 'predictions = "g.csv"\nparameters = "theta.csv"')
     with pytest.raises(ProjectError, match=r"g\.csv: expected columns named after the sensors \(S1, S2, S3, S4\), "
-                                           r"missing S4; unexpected X4"):
+                                           r"missing S4 \(the file also has X4\)"):
         Project.from_toml(write_project(tmp_path, toml))
     with pytest.raises(ProjectError, match=r"g3\.npy: expected 4 columns \(sensors, in order\), got 3"):
         Project.from_toml(write_project(tmp_path, toml.replace("g.csv", "g3.npy")))

@@ -128,44 +128,6 @@ def _forget_if_from_elsewhere(module_name: str, folder: Path) -> None:
             del sys.modules[name]
 
 
-class CheckedModel:
-    """The project's model function, with its output checked batch by batch.
-
-    It is called as ``function(theta, **options)`` with theta of shape (n, p)
-    and must return (n, n_m) predictions, one column per sensor of the
-    measurements (excluded sensors included); their columns are dropped here.
-    Batches arrive in instance order, so the running offset names instances.
-    """
-
-    def __init__(self, function: Callable, options: dict, *, n_columns: int, kept: tuple[int, ...],
-                 parameter_names: tuple[str, ...], nan: str, where: str):
-        self.function, self.options = function, dict(options)
-        self.n_columns, self.kept = n_columns, np.asarray(kept)
-        self.parameter_names, self.nan, self.where = parameter_names, nan, where
-        self.offset = 0
-
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        out = self.function(theta, **self.options)
-        try:
-            out = np.asarray(out, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ProjectError(f"{self.where}: returned {type(out).__name__}, expected an array of numbers "
-                               f"of shape ({len(theta)}, {self.n_columns})") from None
-        if out.shape != (theta.shape[0], self.n_columns):
-            raise ProjectError(
-                f"{self.where}: returned shape {out.shape} for {theta.shape[0]} parameter sets, expected "
-                f"({theta.shape[0]}, {self.n_columns}): one column per sensor, in the order of the measurements"
-            )
-        if self.nan == "raise":
-            bad = np.flatnonzero(np.isnan(out).any(axis=1))
-            if bad.size:
-                values = ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, theta[bad[0]]))
-                raise ProjectError(f"{self.where}: returned NaN for instance {self.offset + bad[0]} ({values}); "
-                                   "expected finite predictions (or set nan = \"falsify\" under [model])")
-        self.offset += theta.shape[0]
-        return out if self.kept.size == self.n_columns else out[:, self.kept]
-
-
 def table_columns(file: Path, key: str, label: str) -> list[str] | int:
     """Column names of a CSV/Parquet file, or the width of a 2-D .npy array."""
     if not file.is_file():
@@ -205,16 +167,20 @@ def read_table(file: Path, columns: list[str] | None, key: str) -> np.ndarray:
         raise ProjectError(f"{file}: expected numbers in every column used ({key}): {exc}") from None
 
 
-def match_columns(found: list[str] | int, wanted: list[str], allowed: set[str], file: Path, what: str) -> None:
-    """Checks a file's columns against the names it must hold (``allowed`` may also appear)."""
+def match_columns(found: list[str] | int, wanted: list[str], allowed: set[str] | None, file: Path, what: str) -> None:
+    """Checks a file's columns against the names it must hold (``allowed`` may also
+    appear; None: any other column may appear, and is ignored)."""
     if isinstance(found, int):
-        if found != len(allowed):
-            raise ProjectError(f"{file}: expected {len(allowed)} columns ({what}, in order), got {found}")
+        expected = len(wanted) if allowed is None else len(allowed)
+        if found != expected:
+            raise ProjectError(f"{file}: expected {expected} columns ({what}, in order), got {found}")
         return
     missing = [c for c in wanted if c not in found]
-    unexpected = [c for c in found if c not in allowed]
+    unexpected = [c for c in found if allowed is not None and c not in allowed]
     if missing or unexpected:
         detail = "; ".join(part for part in (
             f"missing {', '.join(missing)}" if missing else "",
             f"unexpected {', '.join(unexpected)}" if unexpected else "") if part)
-        raise ProjectError(f"{file}: expected columns named after the {what} ({', '.join(wanted)}), {detail}")
+        extra = [c for c in found if c not in wanted]
+        also = f" (the file also has {', '.join(extra)})" if extra and not unexpected else ""
+        raise ProjectError(f"{file}: expected columns named after the {what} ({', '.join(wanted)}), {detail}{also}")

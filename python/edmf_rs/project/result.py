@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ..engine.result import FalsificationResult
+from ..engine.sensors import SensorMapping
 from ..engine.thresholds import Thresholds
 from ..engine.uncertainty import CombinedUncertainty
 from ..stream.atomic import atomic_path, write_bytes, write_text
@@ -74,6 +75,7 @@ class Identification:
     prognoses: tuple[Prognosis, ...]
     sample: InstanceSample
     elapsed: float
+    sensor_mapping: SensorMapping | None = None
 
     @property
     def model_class_falsified(self) -> bool:
@@ -106,6 +108,17 @@ class Identification:
                            "domain; consider widening it.")
         return out
 
+    def mapping_text(self) -> str:
+        """How the model's outputs were matched to the sensors, in words."""
+        m = self.sensor_mapping
+        if m is None:
+            return ""
+        pairs = [f"{col} -> {name}" for col, name in zip(m.columns, self.project.sensor_names) if col != name]
+        text = m.how + (f" ({', '.join(pairs)})" if pairs else "")
+        if m.ignored:
+            text += f"; outputs not used (no such sensor measured, or excluded): {', '.join(m.ignored)}"
+        return text
+
     def thresholds_table(self) -> pd.DataFrame:
         """Per sensor: measured value, U_c moments, threshold bounds and leave-one-out counts."""
         s, loo = self.project.sensors, self.leave_one_out
@@ -136,6 +149,8 @@ class Identification:
                              f"(domain {number(param.low)} .. {number(param.high)})")
         if r.n_invalid:
             lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
+        if self.sensor_mapping is not None:
+            lines.append(f"model outputs matched to the sensors {self.mapping_text()}")
         lines += [f"- {text}" for text in self.findings()]
         lines += [f"prognosis: {prog.summary()}" for prog in self.prognoses]
         return "\n".join(lines)
@@ -154,6 +169,9 @@ class Identification:
                 "phi": p.phi, "correction": p.correction, "per_sensor_probability": t.probability,
                 "combined_uncertainty": "exact" if self.combined.exact else "monte_carlo",
                 "monte_carlo_samples": None if self.combined.exact else p.n_samples,
+                "sensor_mapping": None if self.sensor_mapping is None else {
+                    "how": self.sensor_mapping.how, "columns": list(self.sensor_mapping.columns),
+                    "ignored": list(self.sensor_mapping.ignored)},
             },
             "sampling": ({"method": "precomputed", "n": r.n_instances} if p.sampling is None else
                          {"method": p.sampling.method, "n": p.sampling.n, "seed": p.sampling.seed,

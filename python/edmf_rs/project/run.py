@@ -19,11 +19,12 @@ import numpy as np
 import pandas as pd
 
 from ..engine.model import falsify_model
+from ..engine.sensors import SensorMapping
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
 from .diagnostics import SensitivityTracker, leave_one_out
+from .evaluation import CheckedModel
 from .inputs import (
-    CheckedModel,
     check_sensors,
     import_function,
     match_columns,
@@ -87,6 +88,7 @@ class Project:
             raise ProjectError(f"{label}: 'instance' names the index of candidates.parquet; expected another "
                                "name for that parameter or sensor")
         sensors = tuple(all_sensors[i] for i in kept)
+        _check_model_sensors(spec.model.sensors, sensors, label)
         model_function = None
         if spec.model.function is not None:
             model_function = import_function(spec.model.function, spec.model.path, label, "model.function")
@@ -129,6 +131,20 @@ class Project:
             raise ProjectError(f"{self.file}: identification.n_samples: {exc}") from None
         return combined
 
+    @property
+    def positional_sensors(self) -> tuple[tuple[str, ...], str]:
+        """The sensor of each column of a bare model array, and where that order comes from."""
+        if self.model.sensors is not None:
+            return self.model.sensors, "[model] sensors"
+        return tuple(s.name for s in self.all_sensors), "the measurements' order"
+
+    @property
+    def all_sensors(self) -> tuple[Sensor, ...]:
+        """Every sensor of the measurements, excluded ones included, in their order."""
+        by_index = dict(zip(self.kept, self.sensors))
+        others = iter(self.excluded)
+        return tuple(by_index[i] if i in by_index else next(others) for i in range(self.n_model_columns))
+
     def run(self, *, progress: bool = True) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass."""
         start = time.perf_counter()
@@ -144,6 +160,7 @@ class Project:
 
         result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
                                progress=progress, nan=self.model.nan, on_batch=on_batch)
+        mapping = getattr(model, "mapping", None)
         candidates = pd.DataFrame(
             np.hstack([result.candidate_parameters, result.candidate_predictions]),
             columns=[*self.parameter_names, *self.sensor_names],
@@ -157,18 +174,19 @@ class Project:
             project=self, combined=combined, thresholds=thresholds, falsification=result,
             leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
             candidates=candidates, prognoses=prognoses, sample=sample.finish(result.candidate_mask),
-            elapsed=time.perf_counter() - start,
+            elapsed=time.perf_counter() - start, sensor_mapping=mapping,
         )
 
     def _instances(self):
         """(model callable, parameters, N) for falsify_model."""
         where = f"{self.file}: model.function = '{self.model.function}'"
         if self.model_function is not None:
-            model = CheckedModel(self.model_function, self.model.options, n_columns=self.n_model_columns,
-                                 kept=self.kept, parameter_names=self.parameter_names, nan=self.model.nan,
-                                 where=where)
+            positional, source = self.positional_sensors
+            model = CheckedModel(self.model_function, self.model.options, sensors=self.sensor_names,
+                                 positional=positional, positional_source=source,
+                                 parameter_names=self.parameter_names, nan=self.model.nan, where=where)
             return model, self.sampling.batches(self.model.batch_size), self.sampling.n
-        theta, predictions = _read_precomputed(self)
+        theta, predictions, mapping = _read_precomputed(self)
         offset = 0
 
         def lookup(batch: np.ndarray) -> np.ndarray:  # batches come in order
@@ -181,6 +199,7 @@ class Project:
             offset += batch.shape[0]
             return rows
 
+        lookup.mapping = mapping
         return lookup, theta, theta.shape[0]
 
     def _prognosis(self, spec: PrognosisSpec, func: Callable, theta: np.ndarray):
@@ -192,21 +211,48 @@ class Project:
             raise ProjectError(f"{self.file}: {spec.key}.function = '{spec.function}': {exc}") from None
 
 
+def _check_model_sensors(listed: tuple[str, ...] | None, sensors: tuple[Sensor, ...], label: str) -> None:
+    """Every sensor used is among the columns ``[model] sensors`` names."""
+    if listed is None:
+        return
+    missing = [s.name for s in sensors if s.name not in listed]
+    if missing:
+        raise ProjectError(f"{label}: model.sensors: expected every sensor of the measurements, missing "
+                           f"{', '.join(missing)} (the measurements have {', '.join(s.name for s in sensors)}; "
+                           f"model.sensors lists {', '.join(listed)})")
+
+
 def _check_precomputed(model: ModelSpec, parameters, all_sensors, sensors, label: str) -> None:
     """The precomputed files exist and their columns match the parameters and sensors."""
     names = [p.name for p in parameters]
     found = table_columns(model.parameters, "model.parameters", label)
     match_columns(found, names, set(names), model.parameters, "parameters")
     found = table_columns(model.predictions, "model.predictions", label)
-    match_columns(found, [s.name for s in sensors], {s.name for s in all_sensors}, model.predictions, "sensors")
+    if isinstance(found, int) and model.sensors is not None:
+        if found != len(model.sensors):
+            raise ProjectError(f"{model.predictions}: expected {len(model.sensors)} columns (model.sensors: "
+                               f"{', '.join(model.sensors)}), got {found}")
+        return
+    if isinstance(found, int):
+        match_columns(found, [s.name for s in sensors], {s.name for s in all_sensors}, model.predictions, "sensors")
+    else:  # named columns: matched by name, others ignored (and reported)
+        match_columns(found, [s.name for s in sensors], None, model.predictions, "sensors")
 
 
-def _read_precomputed(project: Project) -> tuple[np.ndarray, np.ndarray]:
+def _read_precomputed(project: Project) -> tuple[np.ndarray, np.ndarray, SensorMapping]:
     m = project.model
     theta = read_table(m.parameters, list(project.parameter_names), "model.parameters")
     predictions = read_table(m.predictions, list(project.sensor_names), "model.predictions")
     if m.predictions.suffix.lower() == ".npy":
-        predictions = predictions[:, list(project.kept)]
+        positional, source = project.positional_sensors
+        predictions = predictions[:, [positional.index(name) for name in project.sensor_names]]
+        ignored = tuple(n for n in positional if n not in project.sensor_names)
+        mapping = SensorMapping(f"by position, columns of {m.predictions.name} in {source}", project.sensor_names,
+                                ignored)
+    else:
+        found = table_columns(m.predictions, "model.predictions", str(project.file))
+        mapping = SensorMapping(f"by name, columns of {m.predictions.name}", project.sensor_names,
+                                tuple(c for c in found if c not in project.sensor_names))
     if theta.shape[0] != predictions.shape[0]:
         raise ProjectError(f"{m.predictions}: expected {theta.shape[0]} rows (one per parameter set of "
                            f"{m.parameters.name}), got {predictions.shape[0]}")
@@ -217,7 +263,7 @@ def _read_precomputed(project: Project) -> tuple[np.ndarray, np.ndarray]:
         if bad.size:
             raise ProjectError(f"{m.parameters}: row {bad[0]}: {p.name} = {theta[bad[0], j]:g} is outside "
                                f"[parameters.{p.name}] = [{p.low:g}, {p.high:g}]; expected values in the domain")
-    return theta, predictions
+    return theta, predictions, mapping
 
 
 def default_out(project_file: str | Path) -> Path:

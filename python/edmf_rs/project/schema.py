@@ -122,6 +122,7 @@ class ModelSpec:
     parameters: Path | None = None
     nan: str = "raise"
     batch_size: int = 10_000
+    sensors: tuple[str, ...] | None = None  # the sensor of each column of a bare array, in order
 
 
 @dataclass(frozen=True)
@@ -275,7 +276,16 @@ def _function_ref(t: Table, key: str) -> str:
 
 def _model(root: Table, base: Path) -> ModelSpec:
     t = root.table("model")
-    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size"))
+    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size", "sensors"))
+    sensors = None
+    if "sensors" in t.data:
+        sensors = t.get("sensors", "list", what="a list of sensor names, one per column the model returns")
+        if not sensors or not all(isinstance(x, str) and x for x in sensors):
+            raise t.error("sensors", "a list of sensor names, one per column the model returns", sensors)
+        twice = sorted({x for x in sensors if sensors.count(x) > 1})
+        if twice:
+            raise t.error("sensors", "distinct sensor names", twice[0] + " twice")
+        sensors = tuple(sensors)
     nan = t.get("nan", "choice", "raise", choices=("raise", "falsify"))
     batch_size = t.get("batch_size", "int", 10_000, what="a positive integer")
     if batch_size < 1:
@@ -289,7 +299,7 @@ def _model(root: Table, base: Path) -> ModelSpec:
             raise t.error("parameters", "no parameters file with function (the [sampling] gives them)",
                           t.data["parameters"])
         return ModelSpec(function=_function_ref(t, "function"), path=base / t.get("path", "str", "."),
-                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size)
+                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size, sensors=sensors)
     for key in ("path", "options"):
         if key in t.data:
             raise t.error(key, f"no {key} with predictions (only with function)", t.data[key])
@@ -299,7 +309,11 @@ def _model(root: Table, base: Path) -> ModelSpec:
     for key, file in (("predictions", predictions), ("parameters", parameters)):
         if file.suffix.lower() not in (".npy", ".csv", ".parquet"):
             raise t.error(key, "a .npy, .csv or .parquet file", t.data[key])
-    return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size)
+    if sensors is not None and predictions.suffix.lower() != ".npy":
+        raise t.error("sensors", f"no sensors list with a {predictions.suffix} file (its columns are named; "
+                      "sensors gives the columns of a .npy array)", list(sensors))
+    return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size,
+                     sensors=sensors)
 
 
 def _measurements(root: Table, base: Path) -> tuple[Path | None, tuple[Sensor, ...], tuple[str, ...]]:

@@ -128,6 +128,8 @@ def _thresholds(ident) -> str:
     html = _table(["sensor", "type", "location", "unit", "measured y", "U_c mean", "U_c sd", "T_low", "T_high",
                    "falsified", "falsified only by it", "candidates without it"], rows, left=2,
                   row_class=lambda k: "suspect" if k in suspects else "")
+    if ident.sensor_mapping is not None:
+        html += f"<p>Model outputs matched to the sensors {escape(ident.mapping_text())}.</p>"
     excluded = ident.project.excluded
     if excluded:
         html += f"<p>Excluded from the identification: {escape(', '.join(s.name for s in excluded))}.</p>"
