@@ -108,7 +108,7 @@ BAD = {
     "grid point missing": (BASE.replace("points = { a = 21, b = 21 }", "points = { a = 21 }"), ["sampling.points.b", "missing"]),
     "lhs without n": (BASE.replace("method = \"grid\"\npoints = { a = 21, b = 21 }", "method = \"lhs\""), ["sampling.n", "missing"]),
     "bad method": (BASE.replace("method = \"grid\"", "method = \"random\""), ["sampling.method", "'grid', 'lhs', 'sobol'"]),
-    "phi": (BASE.replace("phi = 0.95", "phi = 1.5"), ["identification.phi", "(0, 1)"]),
+    "phi": (BASE.replace("phi = 0.95", "phi = 1.5"), ["identification.phi", "between 0.5 and 0.999999999"]),
     "correction": (BASE.replace("phi = 0.95", "correction = \"holm\""), ["identification.correction", "'sidak'"]),
     "no model": (BASE.replace("function = \"lin_model:predict\"", ""), ["model.function", "predictions"]),
     "module missing": (BASE.replace("lin_model:predict", "nowhere_model:predict"), ["model.function", "cannot import module 'nowhere_model'"]),

@@ -71,8 +71,12 @@ def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, na
     rather than read by position.
     """
     where = (f"batch {index}, " if index is not None else "") + f"instances {offset}..{offset + len(batch) - 1}"
+    # A read-only copy: a model that edits its input in place would otherwise
+    # change the caller's array and the candidates' reported parameters.
+    theta = batch.copy()
+    theta.flags.writeable = False
     try:
-        predictions = model(batch)
+        predictions = model(theta)
     except Exception as exc:
         exc.add_note(f"edmf_rs: raised by the model on {where}")
         raise
@@ -125,7 +129,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     ----------
     model
         Vectorised callable: ``model(batch)`` with ``batch`` of shape (n, p)
-        returns predictions of shape (n, n_m), one column per sensor.
+        returns predictions of shape (n, n_m), one column per sensor. The
+        batch it gets is a read-only copy (editing it in place raises).
     parameters
         An (N, p) array, or an iterable of (n, p) batches consumed once (e.g.
         a generator of ``scipy.stats.qmc.Sobol(d).random(n)`` draws).

@@ -9,7 +9,8 @@ engine; the engine does not depend on it.
 """
 
 from .prognosis import Prognosis, predict
-from .run import Project, run_cli
+from .command import run_cli
+from .run import Project
 from .schema import ProjectError
 
 __all__ = ["Prognosis", "Project", "ProjectError", "predict", "run_cli"]

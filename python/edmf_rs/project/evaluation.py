@@ -10,11 +10,13 @@ measurements' order, excluded sensors included).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..engine.sensors import SensorMapping, SensorMatch, SensorMismatch
+from .errors import call_user_code
 from .schema import ProjectError
 
 
@@ -52,6 +54,9 @@ class CheckedModel:
         self.match = SensorMatch(sensors, positional, positional_source)
         self.parameter_names, self.nan, self.where = parameter_names, nan, where
         self.offset = 0
+        self.batch = 0
+        self.seconds = 0.0  # spent in the model
+        self.instances = 0
 
     @property
     def mapping(self) -> SensorMapping | None:
@@ -63,7 +68,13 @@ class CheckedModel:
         return ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, theta_row))
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
-        out = self.function(theta, **self.options)
+        last = self.offset + theta.shape[0] - 1
+        started = time.perf_counter()
+        out = call_user_code(lambda t: self.function(t, **self.options), theta, what=self.where,
+                             where=f"batch {self.batch} (instances {self.offset}..{last})", first=self.offset,
+                             describe=self.describe)
+        self.seconds += time.perf_counter() - started
+        self.instances += theta.shape[0]
         try:
             out = self.match(out, theta.shape[0])
             out = np.asarray(out, dtype=np.float64)
@@ -80,4 +91,5 @@ class CheckedModel:
                                    f"({self.describe(theta[bad[0]])}); expected finite predictions "
                                    "(or set nan = \"falsify\" under [model])")
         self.offset += theta.shape[0]
+        self.batch += 1
         return out

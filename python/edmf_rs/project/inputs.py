@@ -7,6 +7,8 @@ from __future__ import annotations
 import csv
 import importlib
 import math
+import os
+import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -18,8 +20,26 @@ from .schema import ProjectError, Sensor
 TABLE_SUFFIXES = (".npy", ".csv", ".parquet")
 
 
-def read_measurements(file: Path, key: str = "measurements.file") -> tuple[Sensor, ...]:
+def regular_file(file: Path, label: str, key: str) -> Path:
+    """``file`` when it is a regular file; else a :class:`ProjectError` naming the
+    project file, the key and the folder searched. FIFOs, devices and folders
+    are refused (reading a FIFO would block until something writes to it)."""
+    try:
+        mode = os.stat(file).st_mode
+    except FileNotFoundError:
+        raise ProjectError(f"{label}: {key}: no such file '{file.name}' (looked in {file.parent.resolve()})") from None
+    except OSError as exc:
+        raise ProjectError(f"{label}: {key}: cannot read '{file}': {exc.strerror}") from None
+    if not stat.S_ISREG(mode):
+        kind = "a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else \
+            "not a regular file"
+        raise ProjectError(f"{label}: {key}: expected a regular file, '{file}' is {kind}")
+    return file
+
+
+def read_measurements(file: Path, key: str = "measurements.file", label: str | None = None) -> tuple[Sensor, ...]:
     """Sensors of a CSV with columns ``sensor,value`` and optionally ``type,location,unit``."""
+    regular_file(file, label or str(file), key)
     try:
         fh = open(file, newline="", encoding="utf-8-sig")
     except OSError as exc:
@@ -91,7 +111,8 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     """
     module_name, _, attr = ref.partition(":")
     if not path.is_dir():
-        raise ProjectError(f"{label}: {key.rsplit('.', 1)[0]}.path: expected a folder, got '{path}'")
+        raise ProjectError(f"{label}: {key.rsplit('.', 1)[0]}.path: expected a folder, got '{path}' "
+                           f"(relative to the project file's folder {Path(label).parent.resolve()})")
     folder = str(path.resolve())
     if folder not in sys.path:
         sys.path.insert(0, folder)
@@ -101,7 +122,7 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     except ImportError as exc:
         if isinstance(exc, ModuleNotFoundError) and exc.name and module_name.startswith(exc.name):
             raise ProjectError(f"{label}: {key}: cannot import module '{module_name}' "
-                               f"(looked in {path} and the installed packages)") from None
+                               f"(looked in {path.resolve()} and the installed packages)") from None
         raise ProjectError(f"{label}: {key}: importing '{module_name}' failed: {exc}") from None
     try:
         func = module
@@ -130,8 +151,7 @@ def _forget_if_from_elsewhere(module_name: str, folder: Path) -> None:
 
 def table_columns(file: Path, key: str, label: str) -> list[str] | int:
     """Column names of a CSV/Parquet file, or the width of a 2-D .npy array."""
-    if not file.is_file():
-        raise ProjectError(f"{label}: {key}: no such file '{file}'")
+    regular_file(file, label, key)
     suffix = file.suffix.lower()
     try:
         if suffix == ".npy":

@@ -25,6 +25,10 @@ from .prognosis import Prognosis, predict
 #: Instances kept for the plots; falsified ones are drawn from this sample.
 PLOT_SAMPLE = 3000
 SUMMARY_SCHEMA = "edmf_rs.project-summary/1"
+#: The files ``Identification.write`` writes (summary.json last).
+FIGURES = ("leave_one_out", "residuals", "scatter_matrix", "parallel_coordinates", "sensitivity")
+OUTPUT_FILES = (*(f"{name}.png" for name in FIGURES), "candidates.parquet", "thresholds.csv", "report.html",
+                "summary.json")
 
 
 class PlotSample:

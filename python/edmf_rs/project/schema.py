@@ -10,6 +10,8 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+import os
+import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +20,11 @@ from ..engine.thresholds import CORRECTIONS
 from .sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
 
 _MISSING = object()
+#: The target identification probabilities a project may ask for: below 0.5 the
+#: true model is more likely falsified than not; above 1 - 1e-9 the thresholds
+#: rest on tails no uncertainty model describes.
+PHI_LOW, PHI_HIGH = 0.5, 1.0 - 1e-9
+PHI_RANGE = "a target identification probability between 0.5 and 0.999999999 (typically 0.95)"
 DISTRIBUTIONS = {"normal": ("mean", "sd"), "uniform": ("low", "high")}
 
 
@@ -182,10 +189,23 @@ def read_spec(path: str | Path) -> ProjectSpec:
     path = Path(path)
     label = str(path)
     try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise ProjectError(f"{label}: no such project file (looked in {path.parent.resolve()})") from None
+    except OSError as exc:
+        raise ProjectError(f"{label}: cannot read the project file: {exc.strerror}") from None
+    if stat.S_ISDIR(mode):
+        raise ProjectError(f"{label}: expected a project file (TOML), got a directory")
+    if not stat.S_ISREG(mode):
+        raise ProjectError(f"{label}: expected a project file (TOML), got a FIFO or device (not a regular file)")
+    try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ProjectError(f"{label}: invalid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ProjectError(f"{label}: expected UTF-8 text (TOML), got byte 0x{exc.object[exc.start]:02x} "
+                           f"at offset {exc.start}") from None
     except FileNotFoundError:
         raise ProjectError(f"{label}: no such project file") from None
     except IsADirectoryError:
@@ -196,9 +216,9 @@ def read_spec(path: str | Path) -> ProjectSpec:
 
     ident = root.table("identification", {})
     ident.check_keys(("name", "description", "phi", "correction", "n_samples", "seed"))
-    phi = ident.get("phi", "number", 0.95, what="a probability in (0, 1)")
-    if not 0.0 < phi < 1.0:
-        raise ident.error("phi", "a probability in (0, 1)", phi)
+    phi = ident.get("phi", "number", 0.95, what=PHI_RANGE)
+    if not PHI_LOW <= phi <= PHI_HIGH:
+        raise ident.error("phi", PHI_RANGE, phi)
     n_samples = ident.get("n_samples", "int", 200_000, what="a number of Monte Carlo samples >= 1000")
     if n_samples < 1000:
         raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
@@ -256,14 +276,20 @@ def _sampling(root: Table, parameters: tuple[Parameter, ...]) -> Sampling:
         for name, count in counts.items():
             if count < 1:
                 raise points.error(name, "a number of grid points >= 1", count)
-        return grid(parameters, counts)
+        try:
+            return grid(parameters, counts)
+        except ValueError as exc:
+            raise ProjectError(f"{root.file}: sampling.{exc}") from None
     if "points" in t.data:
         raise t.error("points", f"no points for method = '{method}' (give n)", t.data["points"])
     n = t.get("n", "int", what="the number of model instances, an integer >= 1")
     if n < 1:
         raise t.error("n", "the number of model instances, an integer >= 1", n)
     seed = t.get("seed", "int", 0)
-    return (latin_hypercube if method == "lhs" else sobol)(parameters, n, seed=seed)
+    try:
+        return (latin_hypercube if method == "lhs" else sobol)(parameters, n, seed=seed)
+    except ValueError as exc:
+        raise ProjectError(f"{root.file}: sampling.{exc}") from None
 
 
 def _function_ref(t: Table, key: str) -> str:
