@@ -337,7 +337,7 @@ def test_cli_cantilever_matches_the_paper_by_hand(tmp_path, capsys):
     assert summary["model_class_falsified"] is False
     assert summary["parameters"]["E"]["candidates"] == {"min": E[ok].min(), "max": E[ok].max()}
     assert E[ok].min() <= 70e3 <= E[ok].max()  # E* is a candidate (Sec. 4.1.2)
-    low = [t["low"] for t in summary["thresholds"]]
+    low = [t["threshold_low"] for t in summary["thresholds"]]
     np.testing.assert_allclose(low, -0.1 * y - z * sd)
     frame = pd.read_parquet(tmp_path / "out" / "candidates.parquet")
     assert list(frame.columns) == ["instance", "E"] + [f"D{i}" for i in range(1, 11)]

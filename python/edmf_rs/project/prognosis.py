@@ -46,12 +46,16 @@ class Prognosis:
         return int(self.values.shape[0])
 
     def summary(self) -> str:
+        """One plain line: what the candidates predict and, with the quantity's
+        own model uncertainty, the range the true value is in."""
         unit = f" {self.unit}" if self.unit else ""
-        text = f"{self.name}: {self.low:.4g} .. {self.high:.4g}{unit}"
-        if self.uncertainty is not None:
-            text += (f" (candidates {self.model_low:.4g} .. {self.model_high:.4g}, "
-                     f"with the {self.probability:.0%} interval of its model uncertainty)")
-        return text
+        span = f"{self.model_low:.4g} .. {self.model_high:.4g}{unit}"
+        if self.uncertainty is None:
+            return f"{self.name}: the candidate models predict {span} (no model uncertainty given for it)"
+        a, b = self.uncertainty_interval
+        return (f"{self.name}: the candidate models predict {span}; with its model uncertainty "
+                f"({self.probability:.0%} interval of prediction - true value: {a:.4g} .. {b:.4g}{unit}), "
+                f"the true value is in {self.low:.4g} .. {self.high:.4g}{unit}")
 
     def as_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "candidates": self.n_candidates,

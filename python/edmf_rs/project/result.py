@@ -24,7 +24,7 @@ from .prognosis import Prognosis, predict
 
 #: Instances kept for the plots; falsified ones are drawn from this sample.
 PLOT_SAMPLE = 3000
-SUMMARY_SCHEMA = "edmf_rs.project-summary/1"
+SUMMARY_SCHEMA = "edmf_rs.project-summary/2"  # /2: threshold_low, threshold_high (were low, high)
 #: The files ``Identification.write`` writes (summary.json last).
 FIGURES = ("leave_one_out", "residuals", "scatter_matrix", "parallel_coordinates", "sensitivity")
 OUTPUT_FILES = (*(f"{name}.png" for name in FIGURES), "candidates.parquet", "thresholds.csv", "report.html",
@@ -131,7 +131,7 @@ class Identification:
             "location": [x.location for x in s], "unit": [x.unit for x in s],
             "measured": [x.value for x in s],
             "uc_mean": self.combined.mean, "uc_sd": self.combined.std,
-            "low": self.thresholds.low, "high": self.thresholds.high,
+            "threshold_low": self.thresholds.low, "threshold_high": self.thresholds.high,
             "falsified": loo.per_sensor_falsified, "falsified_only_by": loo.falsified_only_by,
             "candidates_without_sensor": loo.candidates_without_sensor,
         })
