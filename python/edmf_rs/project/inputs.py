@@ -4,9 +4,7 @@ file, the key or line, and what was expected."""
 
 from __future__ import annotations
 
-import csv
 import importlib
-import math
 import os
 import stat
 import sys
@@ -35,51 +33,6 @@ def regular_file(file: Path, label: str, key: str) -> Path:
             "not a regular file"
         raise ProjectError(f"{label}: {key}: expected a regular file, '{file}' is {kind}")
     return file
-
-
-def read_measurements(file: Path, key: str = "measurements.file", label: str | None = None) -> tuple[Sensor, ...]:
-    """Sensors of a CSV with columns ``sensor,value`` and optionally ``type,location,unit``."""
-    regular_file(file, label or str(file), key)
-    try:
-        fh = open(file, newline="", encoding="utf-8-sig")
-    except OSError as exc:
-        raise ProjectError(f"{file}: cannot read the measurements ({key}): {exc.strerror}") from None
-    sensors = []
-    with fh:
-        reader = csv.DictReader(fh)
-        columns = [c.strip() for c in reader.fieldnames or []]
-        missing = [c for c in ("sensor", "value") if c not in columns]
-        if missing:
-            raise ProjectError(f"{file}: line 1: expected a header with columns sensor,value "
-                               f"(optional: type,location,unit), missing {', '.join(missing)}")
-        reader.fieldnames = columns
-        for row in reader:
-            line = reader.line_num
-            name = (row.get("sensor") or "").strip()
-            if not name:
-                raise ProjectError(f"{file}: line {line}: sensor: expected a sensor name, got an empty cell")
-            value = _number(row.get("value"), file, line, "value", required=True)
-            location = _number(row.get("location"), file, line, "location", required=False)
-            sensors.append(Sensor(name, value, type=(row.get("type") or "").strip(), location=location,
-                                  unit=(row.get("unit") or "").strip()))
-    if not sensors:
-        raise ProjectError(f"{file}: expected at least one sensor row after the header")
-    return tuple(sensors)
-
-
-def _number(text, file: Path, line: int, column: str, required: bool) -> float | None:
-    text = (text or "").strip()
-    if not text:
-        if required:
-            raise ProjectError(f"{file}: line {line}: {column}: expected a number, got an empty cell")
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        raise ProjectError(f"{file}: line {line}: {column}: expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise ProjectError(f"{file}: line {line}: {column}: expected a finite number, got {text!r}")
-    return value
 
 
 def check_sensors(sensors: tuple[Sensor, ...], exclude: tuple[str, ...], where: str, label: str) -> tuple[int, ...]:

@@ -24,7 +24,8 @@ from ..engine.uncertainty import CombinedUncertainty
 from .diagnostics import SensitivityTracker, leave_one_out
 from .errors import call_user_code
 from .evaluation import CheckedModel
-from .inputs import check_sensors, import_function, read_measurements
+from .inputs import check_sensors, import_function
+from .measurements import read_measurements
 from .plan import Plan, check_estimate
 from .precomputed import check_precomputed, count_rows, first_parameters, precomputed_instances
 from .prognosis import predict
@@ -70,7 +71,8 @@ class Project:
         spec = read_spec(path)
         label = str(spec.file)
         if spec.measurements_file is not None:
-            all_sensors = read_measurements(spec.measurements_file, label=label)
+            all_sensors = read_measurements(spec.measurements_file, label=label, decimal=spec.decimal,
+                                            encoding=spec.encoding)
             where = str(spec.measurements_file)
         else:
             all_sensors, where = spec.inline_sensors, f"{label}: measurements.sensors"

@@ -7,6 +7,7 @@ imports the model (see :mod:`edmf_rs.project_inputs`).
 
 from __future__ import annotations
 
+import codecs
 import difflib
 import math
 import numbers
@@ -178,6 +179,8 @@ class ProjectSpec:
     exclude: tuple[str, ...]
     uncertainty: tuple[UncertaintySpec, ...]
     prognosis: tuple[PrognosisSpec, ...]
+    decimal: str = "."        # of the measurements file
+    encoding: str = "utf-8"   # of the measurements file
 
 
 TOP_LEVEL = ("identification", "parameters", "sampling", "model", "measurements", "sensors",
@@ -233,7 +236,7 @@ def read_spec(path: str | Path) -> ProjectSpec:
     else:
         sampling = _sampling(root, parameters)
 
-    measurements_file, inline, exclude = _measurements(root, base)
+    measurements_file, inline, exclude, decimal, encoding = _measurements(root, base)
     return ProjectSpec(
         file=path, name=ident.get("name", "str", path.stem),
         description=ident.get("description", "str", ""),
@@ -241,7 +244,7 @@ def read_spec(path: str | Path) -> ProjectSpec:
         n_samples=n_samples, seed=ident.get("seed", "int", 0),
         parameters=parameters, sampling=sampling, model=model,
         measurements_file=measurements_file, inline_sensors=inline, exclude=exclude,
-        uncertainty=_uncertainty(root), prognosis=_prognosis(root, base),
+        uncertainty=_uncertainty(root), prognosis=_prognosis(root, base), decimal=decimal, encoding=encoding,
     )
 
 
@@ -342,9 +345,19 @@ def _model(root: Table, base: Path) -> ModelSpec:
                      sensors=sensors)
 
 
-def _measurements(root: Table, base: Path) -> tuple[Path | None, tuple[Sensor, ...], tuple[str, ...]]:
+def _measurements(root: Table, base: Path):
+    """(file, inline sensors, excluded names, decimal separator, encoding)."""
     t = root.table("measurements", {})
-    t.check_keys(("file", "sensors", "exclude"))
+    t.check_keys(("file", "sensors", "exclude", "decimal", "encoding"))
+    decimal = t.get("decimal", "choice", ".", choices=(".", ","))
+    encoding = t.get("encoding", "str", "utf-8", what="a text encoding (e.g. \"utf-8\", \"latin-1\")")
+    try:
+        codecs.lookup(encoding)
+    except LookupError:
+        raise t.error("encoding", "a text encoding Python knows (e.g. \"utf-8\", \"latin-1\")", encoding) from None
+    for key in ("decimal", "encoding"):
+        if key in t.data and "file" not in t.data:
+            raise t.error(key, f"no {key} without a measurements file", t.data[key])
     inline = tuple(t.tables("sensors")) + tuple(root.tables("sensors"))
     if ("file" in t.data) == bool(inline):
         raise t.error("file", "either file = 'measurements.csv' or inline [[measurements.sensors]] tables"
@@ -359,7 +372,7 @@ def _measurements(root: Table, base: Path) -> tuple[Path | None, tuple[Sensor, .
         location = s.get("location", "number", None)
         sensors.append(Sensor(s.get("name", "str", what="the sensor's name"), s.get("value", "number"),
                               type=s.get("type", "str", ""), location=location, unit=s.get("unit", "str", "")))
-    return file, tuple(sensors), tuple(exclude)
+    return file, tuple(sensors), tuple(exclude), decimal, encoding
 
 
 def distribution_values(t: Table, distribution: str, *, absolute_only: bool = False) -> tuple[float, float]:
