@@ -6,7 +6,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
 import pytest
 from edmf_rs import cli
 from edmf_rs.project import Project, ProjectError
