@@ -2,7 +2,7 @@
 
 Each check names the file, the dotted key (``parameters.E.low``) and what was
 expected, in one :class:`ProjectError`; nothing here reads other files or
-imports the model (see :mod:`edmf_rs.project_inputs`).
+imports the model (see :mod:`edmf_rs.project.inputs`).
 """
 
 from __future__ import annotations
