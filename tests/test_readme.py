@@ -4,6 +4,8 @@ ones CI runs."""
 import re
 from pathlib import Path
 
+import pytest
+
 README = Path(__file__).resolve().parent.parent / "README.md"
 
 
@@ -15,11 +17,17 @@ def test_readme_has_examples():
     assert len(python_blocks()) >= 2
 
 
-def test_readme_examples_run(tmp_path, monkeypatch):
+@pytest.mark.parametrize("index", range(len(python_blocks())))
+def test_readme_example_runs_on_its_own(index, tmp_path, monkeypatch):
+    """Each block runs alone, in a fresh namespace and folder, as a reader would paste it."""
     monkeypatch.chdir(tmp_path)
-    namespace: dict = {}
-    for block in python_blocks():
-        exec(compile(block, str(README), "exec"), namespace)
+    block = python_blocks()[index]
+    exec(compile(block, f"{README} (python block {index + 1})", "exec"), {"__name__": "__readme__"})
+
+
+def test_the_dask_block_says_how_to_install_the_extra():
+    dask_blocks = [b for b in python_blocks() if "edmf_rs.dask" in b]
+    assert dask_blocks and all('pip install ".[dask]"' in b for b in dask_blocks)
 
 
 def test_ci_runs_the_readme_test_command():

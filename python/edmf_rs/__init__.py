@@ -16,6 +16,24 @@ The package is laid out in rooms, each with one job (see the README's Layout):
 
 __version__ = "0.1.0"
 
+import sys as _sys
+
+
+def _interrupted_while_importing(kind, value, tb, _previous=_sys.excepthook):
+    """Ctrl-C while the ``edmf-rs`` command is still importing: one line, not a
+    traceback of import internals. Installed only for the command, and removed
+    once the import completes."""
+    if issubclass(kind, KeyboardInterrupt):
+        print("edmf-rs: interrupted", file=_sys.stderr)
+    else:
+        _previous(kind, value, tb)
+
+
+_command = bool(_sys.argv) and (_sys.argv[0] == "-m" or _sys.argv[0].replace("\\", "/").endswith("/edmf-rs")
+                                or _sys.argv[0] == "edmf-rs")
+if _command:
+    _sys.excepthook = _interrupted_while_importing
+
 from . import examples, reference
 from ._core import get_num_threads, set_num_threads
 from .adaptive import adaptive_falsify
@@ -34,6 +52,10 @@ from .paper.baselines import (
 from .paper.coverage import CoverageResult
 from .project import Prognosis, Project, ProjectError, predict
 from .stream.checkpoint import CheckpointError
+
+if _command and _sys.excepthook is _interrupted_while_importing:
+    _sys.excepthook = _interrupted_while_importing.__defaults__[0]
+del _command
 
 __all__ = [
     "CheckpointError",

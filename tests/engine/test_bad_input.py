@@ -253,14 +253,17 @@ def test_a_path_given_as_bytes_is_a_file(tmp_path):
 
 
 def test_array_parameters_are_read_in_place(tmp_path):
-    # A memory-mapped parameter file is not copied into memory first.
+    # A memory-mapped parameter file is not copied into memory first: the model
+    # gets read-only copies of one batch each (issue 12: a model editing theta
+    # in place must not change the caller's array), never of the whole file.
     theta = np.lib.format.open_memmap(tmp_path / "theta.npy", mode="w+", dtype=np.float64, shape=(5000, 1))
     theta[:] = 0.0
-    shared = []
+    seen = []
 
     def model(batch):
-        shared.append(np.shares_memory(batch, theta))
+        owner = batch if batch.base is None else batch.base
+        seen.append((np.shares_memory(batch, theta), batch.flags.writeable, owner.size))
         return np.zeros((len(batch), 2))
 
     edmf_rs.falsify_model(model, theta, Y2, T2, batch_size=1000, progress=False)
-    assert shared == [True] * 5
+    assert seen == [(False, False, 1000)] * 5

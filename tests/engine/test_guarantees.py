@@ -54,7 +54,7 @@ def test_project_summary_and_report_state_the_guarantee(tmp_path):
     d = ident.summary_dict()["identification"]
     assert d["guaranteed_probability"] == pytest.approx(0.95) and d["borderline_instances"] == 0
     table = ident.thresholds_table()
-    assert {"low_se", "high_se", "method"} <= set(table.columns) and set(table["method"]) == {"exact"}
+    assert {"threshold_low_se", "threshold_high_se", "method"} <= set(table.columns) and set(table["method"]) == {"exact"}
 
 
 def test_readme_p_t_is_the_population_value_with_the_noise_of_1000_draws():

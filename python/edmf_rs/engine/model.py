@@ -9,7 +9,8 @@ of the candidate model set, not the number of instances.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Iterator
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -21,6 +22,7 @@ from ..stream.progress import bar
 from ._validate import finite_vector, flag, positive_int, real_array
 from .durable import open_run
 from .result import FalsificationResult
+from .sensors import SensorMatch, SensorMismatch, named_output
 from .thresholds import Thresholds
 
 
@@ -61,14 +63,34 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
 
 
 def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, nan: str,
-             index: int | None = None) -> np.ndarray:
-    """Runs the model on one batch and checks what it returns."""
+             index: int | None = None, match: SensorMatch | None = None) -> np.ndarray:
+    """Runs the model on one batch and checks what it returns.
+
+    With ``match``, named outputs (DataFrame, mapping, structured array) are
+    matched to the sensors by name; without it, a named output is refused
+    rather than read by position.
+    """
     where = (f"batch {index}, " if index is not None else "") + f"instances {offset}..{offset + len(batch) - 1}"
+    # A read-only copy: a model that edits its input in place would otherwise
+    # change the caller's array and the candidates' reported parameters.
+    theta = batch.copy()
+    theta.flags.writeable = False
     try:
-        predictions = model(batch)
+        predictions = model(theta)
     except Exception as exc:
         exc.add_note(f"edmf_rs: raised by the model on {where}")
         raise
+    names, _ = named_output(predictions)
+    if match is not None:
+        try:
+            predictions = match(predictions, batch.shape[0])
+        except SensorMismatch as exc:
+            raise ValueError(f"model: {exc} ({where})") from None
+    elif names is not None:
+        shown = ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
+        raise TypeError(
+            f"model: returned {type(predictions).__name__} with named columns ({shown}) on {where}; pass "
+            "sensors=[...] (the measurements' sensor names, in order) so they are matched by name")
     try:
         predictions = np.asarray(predictions)
     except (TypeError, ValueError) as exc:
@@ -99,7 +121,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
                   nan: str = "raise", progress: bool = True,
                   on_batch: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
                   checkpoint: str | os.PathLike | None = None,
-                  checkpoint_every: float = 60.0) -> FalsificationResult:
+                  checkpoint_every: float = 60.0,
+                  sensors: Sequence[str] | None = None) -> FalsificationResult:
     """Evaluate ``model`` on every parameter set and falsify as it goes (Eq. 8).
 
     Python evaluates the model on batch k+1 while the Rust core falsifies
@@ -110,7 +133,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     ----------
     model : callable
         Vectorised callable: ``model(batch)`` with ``batch`` of shape (n, p)
-        returns predictions of shape (n, n_m), one column per sensor.
+        returns predictions of shape (n, n_m), one column per sensor. The
+        batch it gets is a read-only copy (editing it in place raises).
     parameters : array_like or iterable of arrays
         An (N, p) array, or an iterable of (n, p) batches consumed once (e.g.
         a generator of ``scipy.stats.qmc.Sobol(d).random(n)`` draws).
@@ -142,6 +166,13 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         the folder while this one holds it.
     checkpoint_every : float, default 60.0
         Seconds between saves of the checkpoint.
+    sensors : sequence of str, optional
+        The names of the sensors of ``measurements``, in order. The model may
+        then return a ``pandas.DataFrame``, a mapping of sensor name to column
+        or a structured array: columns are matched to the sensors by name, in
+        any order, and outputs no sensor uses are ignored (with a warning). A
+        bare array is read by position, one column per sensor in this order.
+        Without ``sensors``, a model output with named columns is refused.
 
     Returns
     -------
@@ -194,9 +225,17 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
     batch_size = positive_int(batch_size, "batch_size")
     every = every_seconds(checkpoint_every)
+    match = None
+    if sensors is not None:
+        if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
+            raise TypeError("sensors: expected a sequence of sensor names (str)")
+        if len(sensors) != y.shape[0]:
+            raise ValueError(f"sensors: expected {y.shape[0]} names (one per measurement), got {len(sensors)}")
+        match = SensorMatch(sensors)
     n_total = _known_length(parameters)
+    named = {"sensors": list(sensors)} if sensors is not None else {}
     fp = fingerprint("falsify_model", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
-                     nan=nan, model=_model_name(model), n_instances=n_total)
+                     nan=nan, model=_model_name(model), n_instances=n_total, **named)
     fields = ("n_violated",) if keep_violations else ()
     with open_run(checkpoint, fp, every, fields + ("parameters", "predictions"), input_name="parameters") as run:
         if run.finished:
@@ -237,7 +276,11 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
                     if params.shape[0] == 0:
                         continue
                     # The model runs here while the worker falsifies the previous batch.
-                    preds = evaluate(model, params, start + offset, y.shape[0], nan, k if start == 0 else None)
+                    preds = evaluate(model, params, start + offset, y.shape[0], nan, k if start == 0 else None,
+                                     match)
+                    if match is not None and offset == 0 and match.mapping.ignored:
+                        warnings.warn(f"model outputs not among the sensors, ignored: "
+                                      f"{', '.join(match.mapping.ignored)}", UserWarning, stacklevel=2)
                     if on_batch is not None:
                         on_batch(start + offset, params, preds)
                     if pending is not None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -23,6 +24,16 @@ from ..engine._validate import positive_int
 
 SCALES = ("linear", "log")
 METHODS = ("grid", "lhs", "sobol")
+#: Instances a plan can count (the instance index is an int64).
+MAX_COUNT = 2**63 - 1
+
+
+def memory_bytes() -> int | None:
+    """Physical memory of this machine (None where it cannot be read)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
 
 
 @dataclass(frozen=True)
@@ -112,6 +123,15 @@ class Sampling:
                     unit = engine.random(min(batch_size, self.n - first))
                 yield self._from_unit(unit)
 
+    def head(self, k: int = 2) -> np.ndarray:
+        """Up to ``k`` parameter sets in the domain, cheaply, to check the model on
+        before a run: the first k of the grid or the Sobol' sequence; for a Latin
+        hypercube (drawn whole in a run) a small hypercube of its own."""
+        k = min(positive_int(k, "k"), self.n)
+        if self.method == "lhs":
+            return self._from_unit(_qmc(qmc.LatinHypercube, len(self.parameters), self.seed).random(k))
+        return next(iter(self.batches(k)))
+
     def all(self) -> np.ndarray:
         """Every parameter set at once, shape (N, p)."""
         parts = list(self.batches(max(self.n, 1)))
@@ -160,12 +180,27 @@ def grid(parameters: Sequence[Parameter], points: Mapping[str, int] | Sequence[i
         if len(counts) != len(parameters):
             raise ValueError(f"points: expected {len(parameters)} counts (one per parameter), got {len(counts)}")
     counts = tuple(positive_int(k, f"points.{p.name}") for k, p in zip(counts, parameters))
-    return Sampling(parameters, "grid", math.prod(counts), points=counts)
+    n = math.prod(counts)
+    if n > MAX_COUNT:
+        raise ValueError(f"points: the grid {' x '.join(f'{k:,}' for k in counts)} has {n:,} instances, more than "
+                         f"can be counted ({MAX_COUNT:,}); expected fewer points")
+    return Sampling(parameters, "grid", n, points=counts)
 
 
 def latin_hypercube(parameters: Sequence[Parameter], n: int, seed: int | None = None) -> Sampling:
-    """``n`` Latin hypercube samples (``scipy.stats.qmc.LatinHypercube``)."""
-    return Sampling(_parameters(parameters), "lhs", positive_int(n, "n"), seed=seed)
+    """``n`` Latin hypercube samples (``scipy.stats.qmc.LatinHypercube``).
+
+    A Latin hypercube is stratified as a whole, so it is drawn whole: n that
+    would not fit in this machine's memory is refused (use :func:`sobol`).
+    """
+    parameters = _parameters(parameters)
+    n = positive_int(n, "n")
+    need, have = 8 * n * len(parameters), memory_bytes()
+    if have is not None and need > have // 2:
+        raise ValueError(f"n: a Latin hypercube of {n:,} instances is drawn whole ({n:,} x {len(parameters)} values, "
+                         f"{need / 2**30:,.1f} GiB), more than half this machine's memory ({have / 2**30:,.1f} GiB); "
+                         "expected a smaller n, or method = 'sobol', which is streamed")
+    return Sampling(parameters, "lhs", n, seed=seed)
 
 
 def sobol(parameters: Sequence[Parameter], n: int, seed: int | None = None) -> Sampling:
@@ -173,4 +208,7 @@ def sobol(parameters: Sequence[Parameter], n: int, seed: int | None = None) -> S
 
     A power of two keeps the sequence's balance properties.
     """
-    return Sampling(_parameters(parameters), "sobol", positive_int(n, "n"), seed=seed)
+    n = positive_int(n, "n")
+    if n > MAX_COUNT:
+        raise ValueError(f"n: {n:,} instances is more than can be counted ({MAX_COUNT:,})")
+    return Sampling(_parameters(parameters), "sobol", n, seed=seed)

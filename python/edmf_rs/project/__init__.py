@@ -8,8 +8,9 @@ falsifies, ``diagnostics`` and ``prognosis`` explain and use the candidates,
 engine; the engine does not depend on it.
 """
 
+from .command import run_cli
 from .prognosis import Prognosis, predict
-from .run import Project, run_cli
+from .run import Project
 from .schema import ProjectError
 
 __all__ = ["Prognosis", "Project", "ProjectError", "predict", "run_cli"]

@@ -83,7 +83,6 @@ def run_adaptive(project, *, progress: bool = True):
     """Runs an adaptive project: the waves, then the diagnostics on every real run."""
     from ..engine.thresholds import threshold_bounds
     from .diagnostics import SensitivityTracker, leave_one_out
-    from .inputs import CheckedModel
     from .result import PlotSample
     from .schema import ProjectError
 
@@ -91,10 +90,7 @@ def run_adaptive(project, *, progress: bool = True):
     s = project.sampling
     combined = project.combined_uncertainty()
     thresholds = threshold_bounds(combined, project.phi, project.correction)
-    where = f"{project.file}: model.function = '{project.model.function}'"
-    model = CheckedModel(project.model_function, project.model.options, n_columns=project.n_model_columns,
-                         kept=project.kept, parameter_names=project.parameter_names, nan=project.model.nan,
-                         where=where)
+    model = project._checked_model()  # outputs matched to the sensors by name, failures named
     try:
         result = adaptive_falsify(model, project.parameters, project.measured, thresholds, budget=s.budget,
                                   n_initial=s.n_initial, wave_size=s.wave_size, n_screen=s.n_screen, c=s.c,

@@ -4,9 +4,9 @@ file, the key or line, and what was expected."""
 
 from __future__ import annotations
 
-import csv
 import importlib
-import math
+import os
+import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -18,48 +18,21 @@ from .schema import ProjectError, Sensor
 TABLE_SUFFIXES = (".npy", ".csv", ".parquet")
 
 
-def read_measurements(file: Path, key: str = "measurements.file") -> tuple[Sensor, ...]:
-    """Sensors of a CSV with columns ``sensor,value`` and optionally ``type,location,unit``."""
+def regular_file(file: Path, label: str, key: str) -> Path:
+    """``file`` when it is a regular file; else a :class:`ProjectError` naming the
+    project file, the key and the folder searched. FIFOs, devices and folders
+    are refused (reading a FIFO would block until something writes to it)."""
     try:
-        fh = open(file, newline="", encoding="utf-8-sig")
+        mode = os.stat(file).st_mode
+    except FileNotFoundError:
+        raise ProjectError(f"{label}: {key}: no such file '{file.name}' (looked in {file.parent.resolve()})") from None
     except OSError as exc:
-        raise ProjectError(f"{file}: cannot read the measurements ({key}): {exc.strerror}") from None
-    sensors = []
-    with fh:
-        reader = csv.DictReader(fh)
-        columns = [c.strip() for c in reader.fieldnames or []]
-        missing = [c for c in ("sensor", "value") if c not in columns]
-        if missing:
-            raise ProjectError(f"{file}: line 1: expected a header with columns sensor,value "
-                               f"(optional: type,location,unit), missing {', '.join(missing)}")
-        reader.fieldnames = columns
-        for row in reader:
-            line = reader.line_num
-            name = (row.get("sensor") or "").strip()
-            if not name:
-                raise ProjectError(f"{file}: line {line}: sensor: expected a sensor name, got an empty cell")
-            value = _number(row.get("value"), file, line, "value", required=True)
-            location = _number(row.get("location"), file, line, "location", required=False)
-            sensors.append(Sensor(name, value, type=(row.get("type") or "").strip(), location=location,
-                                  unit=(row.get("unit") or "").strip()))
-    if not sensors:
-        raise ProjectError(f"{file}: expected at least one sensor row after the header")
-    return tuple(sensors)
-
-
-def _number(text, file: Path, line: int, column: str, required: bool) -> float | None:
-    text = (text or "").strip()
-    if not text:
-        if required:
-            raise ProjectError(f"{file}: line {line}: {column}: expected a number, got an empty cell")
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        raise ProjectError(f"{file}: line {line}: {column}: expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise ProjectError(f"{file}: line {line}: {column}: expected a finite number, got {text!r}")
-    return value
+        raise ProjectError(f"{label}: {key}: cannot read '{file}': {exc.strerror}") from None
+    if not stat.S_ISREG(mode):
+        kind = "a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else \
+            "not a regular file"
+        raise ProjectError(f"{label}: {key}: expected a regular file, '{file}' is {kind}")
+    return file
 
 
 def check_sensors(sensors: tuple[Sensor, ...], exclude: tuple[str, ...], where: str, label: str) -> tuple[int, ...]:
@@ -91,7 +64,8 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     """
     module_name, _, attr = ref.partition(":")
     if not path.is_dir():
-        raise ProjectError(f"{label}: {key.rsplit('.', 1)[0]}.path: expected a folder, got '{path}'")
+        raise ProjectError(f"{label}: {key.rsplit('.', 1)[0]}.path: expected a folder, got '{path}' "
+                           f"(relative to the project file's folder {Path(label).parent.resolve()})")
     folder = str(path.resolve())
     if folder not in sys.path:
         sys.path.insert(0, folder)
@@ -101,7 +75,7 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
     except ImportError as exc:
         if isinstance(exc, ModuleNotFoundError) and exc.name and module_name.startswith(exc.name):
             raise ProjectError(f"{label}: {key}: cannot import module '{module_name}' "
-                               f"(looked in {path} and the installed packages)") from None
+                               f"(looked in {path.resolve()} and the installed packages)") from None
         raise ProjectError(f"{label}: {key}: importing '{module_name}' failed: {exc}") from None
     try:
         func = module
@@ -128,48 +102,9 @@ def _forget_if_from_elsewhere(module_name: str, folder: Path) -> None:
             del sys.modules[name]
 
 
-class CheckedModel:
-    """The project's model function, with its output checked batch by batch.
-
-    It is called as ``function(theta, **options)`` with theta of shape (n, p)
-    and must return (n, n_m) predictions, one column per sensor of the
-    measurements (excluded sensors included); their columns are dropped here.
-    Batches arrive in instance order, so the running offset names instances.
-    """
-
-    def __init__(self, function: Callable, options: dict, *, n_columns: int, kept: tuple[int, ...],
-                 parameter_names: tuple[str, ...], nan: str, where: str):
-        self.function, self.options = function, dict(options)
-        self.n_columns, self.kept = n_columns, np.asarray(kept)
-        self.parameter_names, self.nan, self.where = parameter_names, nan, where
-        self.offset = 0
-
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        out = self.function(theta, **self.options)
-        try:
-            out = np.asarray(out, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ProjectError(f"{self.where}: returned {type(out).__name__}, expected an array of numbers "
-                               f"of shape ({len(theta)}, {self.n_columns})") from None
-        if out.shape != (theta.shape[0], self.n_columns):
-            raise ProjectError(
-                f"{self.where}: returned shape {out.shape} for {theta.shape[0]} parameter sets, expected "
-                f"({theta.shape[0]}, {self.n_columns}): one column per sensor, in the order of the measurements"
-            )
-        if self.nan == "raise":
-            bad = np.flatnonzero(np.isnan(out).any(axis=1))
-            if bad.size:
-                values = ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, theta[bad[0]]))
-                raise ProjectError(f"{self.where}: returned NaN for instance {self.offset + bad[0]} ({values}); "
-                                   "expected finite predictions (or set nan = \"falsify\" under [model])")
-        self.offset += theta.shape[0]
-        return out if self.kept.size == self.n_columns else out[:, self.kept]
-
-
 def table_columns(file: Path, key: str, label: str) -> list[str] | int:
     """Column names of a CSV/Parquet file, or the width of a 2-D .npy array."""
-    if not file.is_file():
-        raise ProjectError(f"{label}: {key}: no such file '{file}'")
+    regular_file(file, label, key)
     suffix = file.suffix.lower()
     try:
         if suffix == ".npy":
@@ -205,16 +140,20 @@ def read_table(file: Path, columns: list[str] | None, key: str) -> np.ndarray:
         raise ProjectError(f"{file}: expected numbers in every column used ({key}): {exc}") from None
 
 
-def match_columns(found: list[str] | int, wanted: list[str], allowed: set[str], file: Path, what: str) -> None:
-    """Checks a file's columns against the names it must hold (``allowed`` may also appear)."""
+def match_columns(found: list[str] | int, wanted: list[str], allowed: set[str] | None, file: Path, what: str) -> None:
+    """Checks a file's columns against the names it must hold (``allowed`` may also
+    appear; None: any other column may appear, and is ignored)."""
     if isinstance(found, int):
-        if found != len(allowed):
-            raise ProjectError(f"{file}: expected {len(allowed)} columns ({what}, in order), got {found}")
+        expected = len(wanted) if allowed is None else len(allowed)
+        if found != expected:
+            raise ProjectError(f"{file}: expected {expected} columns ({what}, in order), got {found}")
         return
     missing = [c for c in wanted if c not in found]
-    unexpected = [c for c in found if c not in allowed]
+    unexpected = [c for c in found if allowed is not None and c not in allowed]
     if missing or unexpected:
         detail = "; ".join(part for part in (
             f"missing {', '.join(missing)}" if missing else "",
             f"unexpected {', '.join(unexpected)}" if unexpected else "") if part)
-        raise ProjectError(f"{file}: expected columns named after the {what} ({', '.join(wanted)}), {detail}")
+        extra = [c for c in found if c not in wanted]
+        also = f" (the file also has {', '.join(extra)})" if extra and not unexpected else ""
+        raise ProjectError(f"{file}: expected columns named after the {what} ({', '.join(wanted)}), {detail}{also}")

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ..engine.result import FalsificationResult
+from ..engine.sensors import SensorMapping
 from ..engine.thresholds import Thresholds
 from ..engine.uncertainty import CombinedUncertainty
 from ..stream.atomic import atomic_path, write_bytes, write_text
@@ -23,7 +24,11 @@ from .prognosis import Prognosis, predict
 
 #: Instances kept for the plots; falsified ones are drawn from this sample.
 PLOT_SAMPLE = 3000
-SUMMARY_SCHEMA = "edmf_rs.project-summary/1"
+SUMMARY_SCHEMA = "edmf_rs.project-summary/2"  # /2: threshold_low, threshold_high (were low, high)
+#: The files ``Identification.write`` writes (summary.json last).
+FIGURES = ("leave_one_out", "residuals", "scatter_matrix", "parallel_coordinates", "sensitivity")
+OUTPUT_FILES = (*(f"{name}.png" for name in FIGURES), "candidates.parquet", "thresholds.csv", "report.html",
+                "summary.json")
 
 
 class PlotSample:
@@ -108,6 +113,7 @@ class Identification:
     sample: InstanceSample
     elapsed: float
     borderline: int = 0  # instances whose verdict changes within +-2 SE of Monte Carlo bounds
+    sensor_mapping: SensorMapping | None = None
 
     @property
     def model_class_falsified(self) -> bool:
@@ -199,6 +205,23 @@ class Identification:
                            "domain; consider widening it.")
         return out
 
+    def mapping_text(self) -> str:
+        """How the model's outputs were matched to the sensors, in words.
+
+        Returns
+        -------
+        str
+            E.g. ``"by name (D10 -> D1, D1 -> D10)"``; empty when no mapping was needed.
+        """
+        m = self.sensor_mapping
+        if m is None:
+            return ""
+        pairs = [f"{col} -> {name}" for col, name in zip(m.columns, self.project.sensor_names) if col != name]
+        text = m.how + (f" ({', '.join(pairs)})" if pairs else "")
+        if m.ignored:
+            text += f"; outputs not used (no such sensor measured, or excluded): {', '.join(m.ignored)}"
+        return text
+
     def thresholds_table(self) -> pd.DataFrame:
         """Per sensor: measured value, U_c moments, threshold bounds and leave-one-out counts.
 
@@ -221,8 +244,9 @@ class Identification:
             "location": [x.location for x in s], "unit": [x.unit for x in s],
             "measured": [x.value for x in s],
             "uc_mean": self.combined.mean, "uc_sd": self.combined.std,
-            "low": self.thresholds.low, "high": self.thresholds.high,
-            "low_se": _se(self.thresholds.se_low, len(s)), "high_se": _se(self.thresholds.se_high, len(s)),
+            "threshold_low": self.thresholds.low, "threshold_high": self.thresholds.high,
+            "threshold_low_se": _se(self.thresholds.se_low, len(s)),
+            "threshold_high_se": _se(self.thresholds.se_high, len(s)),
             "method": list(self.thresholds.method or ("exact",) * len(s)),
             "falsified": loo.per_sensor_falsified, "falsified_only_by": loo.falsified_only_by,
             "candidates_without_sensor": loo.candidates_without_sensor,
@@ -262,6 +286,8 @@ class Identification:
                          f"{self.borderline:,}")
         if r.n_invalid:
             lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
+        if self.sensor_mapping is not None:
+            lines.append(f"model outputs matched to the sensors {self.mapping_text()}")
         lines += [f"- {text}" for text in self.findings()]
         lines += [f"prognosis: {prog.summary()}" for prog in self.prognoses]
         return "\n".join(lines)
@@ -298,6 +324,9 @@ class Identification:
                 "monte_carlo_confidence": t.confidence,
                 "guaranteed_probability": t.guaranteed_probability, "guarantee": t.guarantee(),
                 "borderline_instances": self.borderline,
+                "sensor_mapping": None if self.sensor_mapping is None else {
+                    "how": self.sensor_mapping.how, "columns": list(self.sensor_mapping.columns),
+                    "ignored": list(self.sensor_mapping.ignored)},
             },
             "sampling": ({"method": "precomputed", "n": r.n_instances} if p.sampling is None else
                          {"method": p.sampling.method, "n": p.sampling.n, "seed": p.sampling.seed,

@@ -5,7 +5,7 @@
 parameters, streams the instances through the model and the falsification
 (Eq. 8) in batches, and returns an :class:`~edmf_rs.project.result.Identification`
 with the candidates, thresholds and diagnostics; ``.write(out)`` saves them.
-The ``edmf-rs run`` command is :func:`run_cli`.
+The ``edmf-rs run`` command is :func:`edmf_rs.project.command.run_cli`.
 """
 
 from __future__ import annotations
@@ -24,21 +24,24 @@ from ..engine.sampling import Parameter, Sampling
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
 from .diagnostics import SensitivityTracker, leave_one_out
-from .inputs import (
-    CheckedModel,
-    check_sensors,
-    import_function,
-    match_columns,
-    read_measurements,
-    read_table,
-    table_columns,
+from .errors import call_user_code
+from .evaluation import CheckedModel
+from .inputs import check_sensors, import_function
+from .measurements import read_measurements
+from .plan import Plan, check_estimate
+from .precomputed import (
+    check_precomputed,
+    count_rows,
+    first_parameters,
+    precomputed_instances,
 )
 from .prognosis import predict
+from .progress import Progress
 from .result import Identification, PlotSample
 from .schema import ModelSpec, PrognosisSpec, ProjectError, Sensor, read_spec
 from .sources import UncertaintySource, combine_sources, frozen, resolve_sources
 
-__all__ = ["Project", "ProjectError", "run_cli"]
+__all__ = ["Project", "ProjectError"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,6 +103,7 @@ class Project:
     n_model_columns: int
     kept: tuple[int, ...]
     prognosis: tuple[tuple[PrognosisSpec, Callable], ...]
+    inputs: tuple[Path, ...] = ()  # the files it reads (never overwritten by an output)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Project:
@@ -135,7 +139,8 @@ class Project:
         spec = read_spec(path)
         label = str(spec.file)
         if spec.measurements_file is not None:
-            all_sensors = read_measurements(spec.measurements_file)
+            all_sensors = read_measurements(spec.measurements_file, label=label, decimal=spec.decimal,
+                                            encoding=spec.encoding)
             where = str(spec.measurements_file)
         else:
             all_sensors, where = spec.inline_sensors, f"{label}: measurements.sensors"
@@ -150,11 +155,12 @@ class Project:
             raise ProjectError(f"{label}: 'instance' names the index of candidates.parquet; expected another "
                                "name for that parameter or sensor")
         sensors = tuple(all_sensors[i] for i in kept)
+        _check_model_sensors(spec.model.sensors, sensors, label)
         model_function = None
         if spec.model.function is not None:
             model_function = import_function(spec.model.function, spec.model.path, label, "model.function")
         else:
-            _check_precomputed(spec.model, spec.parameters, all_sensors, sensors, label)
+            check_precomputed(spec.model, spec.parameters, all_sensors, sensors, label)
         prognosis = tuple((p, import_function(p.function, p.path, label, f"{p.key}.function"))
                           for p in spec.prognosis)
         return cls(
@@ -165,6 +171,8 @@ class Project:
             uncertainty=resolve_sources(spec.uncertainty, all_sensors, kept, label),
             model=spec.model, model_function=model_function, n_model_columns=len(all_sensors), kept=kept,
             prognosis=prognosis,
+            inputs=tuple(f for f in (spec.file, spec.measurements_file, spec.model.predictions, spec.model.parameters)
+                         if f is not None),
         )
 
     @property
@@ -211,7 +219,71 @@ class Project:
             raise ProjectError(f"{self.file}: identification.n_samples: {exc}") from None
         return combined
 
-    def run(self, *, progress: bool = True) -> Identification:
+    @property
+    def positional_sensors(self) -> tuple[tuple[str, ...], str]:
+        """The sensor of each column of a bare model array, and where that order comes from."""
+        if self.model.sensors is not None:
+            return self.model.sensors, "[model] sensors"
+        return tuple(s.name for s in self.all_sensors), "the measurements' order"
+
+    @property
+    def all_sensors(self) -> tuple[Sensor, ...]:
+        """Every sensor of the measurements, excluded ones included, in their order."""
+        by_index = dict(zip(self.kept, self.sensors))
+        others = iter(self.excluded)
+        return tuple(by_index[i] if i in by_index else next(others) for i in range(self.n_model_columns))
+
+    @property
+    def n_instances(self) -> int:
+        """N, the number of model instances (rows of the precomputed files)."""
+        if self.sampling is not None:
+            return self.sampling.n
+        return count_rows(self.model.predictions, "model.predictions")
+
+    def check(self) -> Plan:
+        """Calls the model and every prognosis function on two instances and
+        returns the run's plan; evaluates nothing else (``edmf-rs run --dry-run``).
+
+        Returns
+        -------
+        Plan
+            The instances, sensors, model, prognoses and the model's time per
+            instance measured on the two instances.
+
+        Raises
+        ------
+        ProjectError
+            When what they return does not fit the sensors.
+        UserCodeError
+            When the model or a prognosis function raises.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> plan = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").check()
+        >>> plan.n_instances, plan.n_sensors
+        (101, 10)
+        """
+        seconds = None
+        if self.model_function is not None:
+            theta = self.sampling.head(2)
+            model = self._checked_model()
+            model(theta)
+            seconds = model.seconds / max(model.instances, 1)
+        else:
+            theta = first_parameters(self, 2)
+        for spec, func in self.prognosis:
+            self._call_prognosis(spec, func, theta, what="instance")
+        instances = self.sampling.describe() if self.sampling is not None else \
+            f"precomputed in {self.model.predictions.name}"
+        return Plan(project=str(self.file), n_instances=self.n_instances, n_sensors=len(self.sensors),
+                    n_parameters=len(self.parameters), instances=instances,
+                    model=self.model.function or f"predictions {self.model.predictions.name}",
+                    batch_size=self.model.batch_size, prognoses=tuple(spec.name for spec, _ in self.prognosis),
+                    seconds_per_instance=seconds)
+
+    def run(self, *, progress: bool | Progress = True, max_seconds: float | None = None) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass.
 
         Samples the parameters (or, with ``method = "adaptive"``, runs EDMF in
@@ -221,8 +293,12 @@ class Project:
 
         Parameters
         ----------
-        progress : bool, default True
-            Show a progress bar once the run lasts a few seconds.
+        progress : bool or Progress, default True
+            True shows instances done of N with an ETA on stderr once the run
+            lasts a few seconds; or pass a :class:`Progress`.
+        max_seconds : float, optional
+            Stop after the first batch when that batch's time, scaled to every
+            instance, is above it (:class:`~edmf_rs.project.plan.RunTooLarge`).
 
         Returns
         -------
@@ -235,10 +311,9 @@ class Project:
         ProjectError
             If precomputed predictions hold NaN (with ``nan = "raise"``) or a
             prognosis cannot be computed.
-        ValueError
-            If the model returns the wrong shape or NaN (with ``nan = "raise"``).
-        Exception
-            Whatever the model raises, with a note naming the instances.
+        UserCodeError
+            If the model or a prognosis function raises (naming the batch,
+            the instances and the first failing instance's parameters).
 
         Examples
         --------
@@ -259,14 +334,29 @@ class Project:
         tracker = SensitivityTracker(thresholds, combined, self.measured)
         sample = PlotSample(n_instances)
         borderline = BorderlineCounter(thresholds, self.measured)
+        first_batch = [max_seconds is not None and self.model_function is not None]
+        began = time.perf_counter()
 
         def on_batch(offset, theta, predictions):
+            if first_batch[0]:
+                first_batch[0] = False
+                elapsed = time.perf_counter() - began
+                check_estimate(elapsed / theta.shape[0] * n_instances, theta.shape[0], elapsed, n_instances,
+                               max_seconds)
             tracker(offset, theta, predictions)
             sample(offset, theta, predictions)
             borderline(offset, theta, predictions)
+            if reporter is not None:
+                reporter.update(theta.shape[0])
 
-        result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
-                               progress=progress, nan=self.model.nan, on_batch=on_batch)
+        reporter = progress if isinstance(progress, Progress) else Progress(n_instances) if progress else None
+        try:
+            result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
+                                   progress=False, nan=self.model.nan, on_batch=on_batch)
+        finally:
+            if reporter is not None:
+                reporter.close()
+        mapping = getattr(model, "mapping", None)
         candidates = pd.DataFrame(
             np.hstack([result.candidate_parameters, result.candidate_predictions]),
             columns=[*self.parameter_names, *self.sensor_names],
@@ -274,88 +364,63 @@ class Project:
         )
         prognoses = ()
         if result.n_candidates:
-            prognoses = tuple(self._prognosis(spec, func, result.candidate_parameters)
+            prognoses = tuple(self._prognosis(spec, func, result.candidate_parameters, result.candidate_indices)
                               for spec, func in self.prognosis)
         return Identification(
             project=self, combined=combined, thresholds=thresholds, falsification=result,
             leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
             candidates=candidates, prognoses=prognoses, sample=sample.finish(result.candidate_mask),
-            elapsed=time.perf_counter() - start, borderline=borderline.count,
+            elapsed=time.perf_counter() - start, borderline=borderline.count, sensor_mapping=mapping,
         )
 
     def _instances(self):
         """(model callable, parameters, N) for falsify_model."""
-        where = f"{self.file}: model.function = '{self.model.function}'"
         if self.model_function is not None:
-            model = CheckedModel(self.model_function, self.model.options, n_columns=self.n_model_columns,
-                                 kept=self.kept, parameter_names=self.parameter_names, nan=self.model.nan,
-                                 where=where)
-            return model, self.sampling.batches(self.model.batch_size), self.sampling.n
-        theta, predictions = _read_precomputed(self)
-        offset = 0
+            return self._checked_model(), self.sampling.batches(self.model.batch_size), self.sampling.n
+        return precomputed_instances(self)
 
-        def lookup(batch: np.ndarray) -> np.ndarray:  # batches come in order
-            nonlocal offset
-            rows = predictions[offset:offset + batch.shape[0]]
-            bad = np.flatnonzero(np.isnan(rows).any(axis=1)) if self.model.nan == "raise" else ()
-            if len(bad):
-                raise ProjectError(f"{self.model.predictions}: row {offset + bad[0]}: expected finite predictions, "
-                                   "got NaN (or set nan = \"falsify\" under [model])")
-            offset += batch.shape[0]
-            return rows
+    def _checked_model(self) -> CheckedModel:
+        positional, source = self.positional_sensors
+        return CheckedModel(self.model_function, self.model.options, sensors=self.sensor_names,
+                            positional=positional, positional_source=source,
+                            parameter_names=self.parameter_names, nan=self.model.nan,
+                            where=f"{self.file}: model.function = '{self.model.function}'")
 
-        return lookup, theta, theta.shape[0]
+    def _describe(self, row) -> str:
+        return ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, row))
 
-    def _prognosis(self, spec: PrognosisSpec, func: Callable, theta: np.ndarray):
-        uncertainty = frozen(*spec.uncertainty) if spec.uncertainty is not None else None
+    def _call_prognosis(self, spec: PrognosisSpec, func: Callable, theta: np.ndarray, *, what: str = "candidate",
+                        index=None):
+        """q(theta) of a prognosis function, its failures named after it; checked to be one number per row."""
+        where = f"{self.file}: {spec.key}.function = '{spec.function}'"
+        first = 0 if index is None else int(index[0])
+        q = call_user_code(lambda t: func(t, **spec.options), theta, what=where, unit=what,
+                           where=f"{theta.shape[0]:,} {what}s", first=first, describe=self._describe)
         try:
-            return predict(lambda t: func(t, **spec.options), theta, uncertainty=uncertainty,
+            arr = np.asarray(q, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ProjectError(f"{where}: returned {type(q).__name__}, expected one number per {what}") from None
+        if arr.shape not in ((theta.shape[0],), (theta.shape[0], 1)):
+            raise ProjectError(f"{where}: returned shape {arr.shape} for {theta.shape[0]} {what}s, expected "
+                               f"({theta.shape[0]},): one value per {what}")
+        return arr
+
+    def _prognosis(self, spec: PrognosisSpec, func: Callable, theta: np.ndarray, index=None):
+        uncertainty = frozen(*spec.uncertainty) if spec.uncertainty is not None else None
+        values = self._call_prognosis(spec, func, theta, index=index)
+        try:
+            return predict(lambda t: values, theta, uncertainty=uncertainty,
                            probability=spec.probability, name=spec.name, unit=spec.unit)
         except ValueError as exc:
             raise ProjectError(f"{self.file}: {spec.key}.function = '{spec.function}': {exc}") from None
 
 
-def _check_precomputed(model: ModelSpec, parameters, all_sensors, sensors, label: str) -> None:
-    """The precomputed files exist and their columns match the parameters and sensors."""
-    names = [p.name for p in parameters]
-    found = table_columns(model.parameters, "model.parameters", label)
-    match_columns(found, names, set(names), model.parameters, "parameters")
-    found = table_columns(model.predictions, "model.predictions", label)
-    match_columns(found, [s.name for s in sensors], {s.name for s in all_sensors}, model.predictions, "sensors")
-
-
-def _read_precomputed(project: Project) -> tuple[np.ndarray, np.ndarray]:
-    m = project.model
-    theta = read_table(m.parameters, list(project.parameter_names), "model.parameters")
-    predictions = read_table(m.predictions, list(project.sensor_names), "model.predictions")
-    if m.predictions.suffix.lower() == ".npy":
-        predictions = predictions[:, list(project.kept)]
-    if theta.shape[0] != predictions.shape[0]:
-        raise ProjectError(f"{m.predictions}: expected {theta.shape[0]} rows (one per parameter set of "
-                           f"{m.parameters.name}), got {predictions.shape[0]}")
-    if theta.shape[0] == 0:
-        raise ProjectError(f"{m.parameters}: expected at least one model instance, the file has none")
-    for j, p in enumerate(project.parameters):
-        bad = np.flatnonzero(~((theta[:, j] >= p.low) & (theta[:, j] <= p.high)))
-        if bad.size:
-            raise ProjectError(f"{m.parameters}: row {bad[0]}: {p.name} = {theta[bad[0], j]:g} is outside "
-                               f"[parameters.{p.name}] = [{p.low:g}, {p.high:g}]; expected values in the domain")
-    return theta, predictions
-
-
-def default_out(project_file: str | Path) -> Path:
-    """The output folder next to the project file, named after it."""
-    project_file = Path(project_file)
-    return project_file.with_name(project_file.stem)
-
-
-def run_cli(project_path: str, out: str | None = None, progress: bool = True) -> int:
-    """``edmf-rs run PROJECT.toml [--out DIR]``: run, write the outputs, print a short summary."""
-    started = time.perf_counter()
-    project = Project.from_toml(project_path)
-    identification = project.run(progress=progress)
-    out_dir = identification.write(Path(out) if out is not None else default_out(project_path))
-    print(identification.summary())
-    print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "
-          f"in {time.perf_counter() - started:.1f} s")
-    return 0
+def _check_model_sensors(listed: tuple[str, ...] | None, sensors: tuple[Sensor, ...], label: str) -> None:
+    """Every sensor used is among the columns ``[model] sensors`` names."""
+    if listed is None:
+        return
+    missing = [s.name for s in sensors if s.name not in listed]
+    if missing:
+        raise ProjectError(f"{label}: model.sensors: expected every sensor of the measurements, missing "
+                           f"{', '.join(missing)} (the measurements have {', '.join(s.name for s in sensors)}; "
+                           f"model.sensors lists {', '.join(listed)})")

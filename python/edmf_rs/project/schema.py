@@ -2,121 +2,30 @@
 
 Each check names the file, the dotted key (``parameters.E.low``) and what was
 expected, in one :class:`ProjectError`; nothing here reads other files or
-imports the model (see :mod:`edmf_rs.project_inputs`).
+imports the model (see :mod:`edmf_rs.project.inputs`).
 """
 
 from __future__ import annotations
 
-import difflib
-import math
-import numbers
+import codecs
+import os
+import stat
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..engine.sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
 from ..engine.thresholds import CORRECTIONS
+from .table import ProjectError, Table
 
-_MISSING = object()
+__all__ = ["ModelSpec", "PrognosisSpec", "ProjectError", "ProjectSpec", "Sensor", "UncertaintySpec", "read_spec"]
+
+#: The target identification probabilities a project may ask for: below 0.5 the
+#: true model is more likely falsified than not; above 1 - 1e-9 the thresholds
+#: rest on tails no uncertainty model describes.
+PHI_LOW, PHI_HIGH = 0.5, 1.0 - 1e-9
+PHI_RANGE = "a target identification probability between 0.5 and 0.999999999 (typically 0.95)"
 DISTRIBUTIONS = {"normal": ("mean", "sd"), "uniform": ("low", "high")}
-
-
-class ProjectError(ValueError):
-    """A project file, or a file it names, that cannot be used as it is.
-
-    The message names the file, the key or line, and what was expected;
-    ``edmf-rs run`` prints it and exits with status 2. A ``ValueError``.
-
-    Attributes
-    ----------
-    args : tuple of str
-        The message, e.g. ``"bridge.toml: identification.phi: expected a
-        probability in (0, 1), got 1.5"``.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> import edmf_rs
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "bad.toml"
-    >>> _ = path.write_text("[identification]\\nphi = 1.5\\n")
-    >>> try:
-    ...     edmf_rs.Project.from_toml(path)
-    ... except edmf_rs.ProjectError as exc:
-    ...     print(str(exc).split(": ", 1)[1])
-    identification.phi: expected a probability in (0, 1), got 1.5
-    """
-
-
-class Table:
-    """A TOML table with where it came from, so errors can name the key."""
-
-    def __init__(self, file: str, key: str, data):
-        self.file, self.key = file, key
-        if not isinstance(data, dict):
-            raise self.error("", f"a table (e.g. [{key}])", data)
-        self.data = data
-
-    def path(self, key: str) -> str:
-        return f"{self.key}.{key}" if self.key and key else (self.key or key)
-
-    def error(self, key: str, expected: str, got=_MISSING) -> ProjectError:
-        where = self.path(key)
-        what = "missing" if got is _MISSING else f"got {got!r}"
-        return ProjectError(f"{self.file}: {where}: expected {expected}, {what}")
-
-    def check_keys(self, allowed) -> None:
-        for key in self.data:
-            if key not in allowed:
-                close = difflib.get_close_matches(key, list(allowed), n=1)
-                hint = f"; did you mean '{close[0]}'?" if close else ""
-                raise ProjectError(
-                    f"{self.file}: unknown key '{self.path(key)}' "
-                    f"(expected one of: {', '.join(allowed)}){hint}"
-                )
-
-    def get(self, key: str, kind: str, default=_MISSING, *, choices=(), what: str = ""):
-        """The value of ``key`` checked against ``kind``: number, positive, int, str, choice, table, list."""
-        value = self.data.get(key, _MISSING)
-        expected = what or {
-            "number": "a number", "positive": "a positive number", "int": "an integer", "str": "a string",
-            "table": "a table", "list": "a list",
-            "choice": "one of " + ", ".join(map(repr, choices)),
-        }[kind]
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(key, expected)
-            return default
-        ok = {
-            "number": lambda v: _is_number(v),
-            "positive": lambda v: _is_number(v) and v > 0,
-            "int": lambda v: isinstance(v, int) and not isinstance(v, bool),
-            "str": lambda v: isinstance(v, str),
-            "choice": lambda v: v in choices,
-            "table": lambda v: isinstance(v, dict),
-            "list": lambda v: isinstance(v, list),
-        }[kind](value)
-        if not ok:
-            raise self.error(key, expected, value)
-        return float(value) if kind in ("number", "positive") else value
-
-    def table(self, key: str, default=_MISSING) -> Table:
-        value = self.data.get(key, _MISSING)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(key, f"a table [{self.path(key)}]")
-            value = default
-        return Table(self.file, self.path(key), value)
-
-    def tables(self, key: str) -> list[Table]:
-        """An array of tables ([[key]]), possibly empty."""
-        value = self.data.get(key, [])
-        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-            raise self.error(key, f"an array of tables ([[{self.path(key)}]])", value)
-        return [Table(self.file, f"{self.path(key)}[{i}]", v) for i, v in enumerate(value)]
-
-
-def _is_number(v) -> bool:
-    return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
 
 
 @dataclass(frozen=True)
@@ -141,6 +50,7 @@ class ModelSpec:
     parameters: Path | None = None
     nan: str = "raise"
     batch_size: int = 10_000
+    sensors: tuple[str, ...] | None = None  # the sensor of each column of a bare array, in order
 
 
 @dataclass(frozen=True)
@@ -190,6 +100,8 @@ class ProjectSpec:
     exclude: tuple[str, ...]
     uncertainty: tuple[UncertaintySpec, ...]
     prognosis: tuple[PrognosisSpec, ...]
+    decimal: str = "."        # of the measurements file
+    encoding: str = "utf-8"   # of the measurements file
 
 
 TOP_LEVEL = ("identification", "parameters", "sampling", "model", "measurements", "sensors",
@@ -201,10 +113,23 @@ def read_spec(path: str | Path) -> ProjectSpec:
     path = Path(path)
     label = str(path)
     try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise ProjectError(f"{label}: no such project file (looked in {path.parent.resolve()})") from None
+    except OSError as exc:
+        raise ProjectError(f"{label}: cannot read the project file: {exc.strerror}") from None
+    if stat.S_ISDIR(mode):
+        raise ProjectError(f"{label}: expected a project file (TOML), got a directory")
+    if not stat.S_ISREG(mode):
+        raise ProjectError(f"{label}: expected a project file (TOML), got a FIFO or device (not a regular file)")
+    try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ProjectError(f"{label}: invalid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ProjectError(f"{label}: expected UTF-8 text (TOML), got byte 0x{exc.object[exc.start]:02x} "
+                           f"at offset {exc.start}") from None
     except FileNotFoundError:
         raise ProjectError(f"{label}: no such project file") from None
     except IsADirectoryError:
@@ -215,9 +140,9 @@ def read_spec(path: str | Path) -> ProjectSpec:
 
     ident = root.table("identification", {})
     ident.check_keys(("name", "description", "phi", "correction", "n_samples", "seed"))
-    phi = ident.get("phi", "number", 0.95, what="a probability in (0, 1)")
-    if not 0.0 < phi < 1.0:
-        raise ident.error("phi", "a probability in (0, 1)", phi)
+    phi = ident.get("phi", "number", 0.95, what=PHI_RANGE)
+    if not PHI_LOW <= phi <= PHI_HIGH:
+        raise ident.error("phi", PHI_RANGE, phi)
     n_samples = ident.get("n_samples", "int", 200_000, what="a number of Monte Carlo samples >= 1000")
     if n_samples < 1000:
         raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
@@ -232,7 +157,7 @@ def read_spec(path: str | Path) -> ProjectSpec:
     else:
         sampling = _sampling(root, parameters)
 
-    measurements_file, inline, exclude = _measurements(root, base)
+    measurements_file, inline, exclude, decimal, encoding = _measurements(root, base)
     return ProjectSpec(
         file=path, name=ident.get("name", "str", path.stem),
         description=ident.get("description", "str", ""),
@@ -240,7 +165,7 @@ def read_spec(path: str | Path) -> ProjectSpec:
         n_samples=n_samples, seed=ident.get("seed", "int", 0),
         parameters=parameters, sampling=sampling, model=model,
         measurements_file=measurements_file, inline_sensors=inline, exclude=exclude,
-        uncertainty=_uncertainty(root), prognosis=_prognosis(root, base),
+        uncertainty=_uncertainty(root), prognosis=_prognosis(root, base), decimal=decimal, encoding=encoding,
     )
 
 
@@ -279,14 +204,20 @@ def _sampling(root: Table, parameters: tuple[Parameter, ...]) -> Sampling:
         for name, count in counts.items():
             if count < 1:
                 raise points.error(name, "a number of grid points >= 1", count)
-        return grid(parameters, counts)
+        try:
+            return grid(parameters, counts)
+        except ValueError as exc:
+            raise ProjectError(f"{root.file}: sampling.{exc}") from None
     if "points" in t.data:
         raise t.error("points", f"no points for method = '{method}' (give n)", t.data["points"])
     n = t.get("n", "int", what="the number of model instances, an integer >= 1")
     if n < 1:
         raise t.error("n", "the number of model instances, an integer >= 1", n)
     seed = t.get("seed", "int", 0)
-    return (latin_hypercube if method == "lhs" else sobol)(parameters, n, seed=seed)
+    try:
+        return (latin_hypercube if method == "lhs" else sobol)(parameters, n, seed=seed)
+    except ValueError as exc:
+        raise ProjectError(f"{root.file}: sampling.{exc}") from None
 
 
 def _function_ref(t: Table, key: str) -> str:
@@ -299,7 +230,16 @@ def _function_ref(t: Table, key: str) -> str:
 
 def _model(root: Table, base: Path) -> ModelSpec:
     t = root.table("model")
-    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size"))
+    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size", "sensors"))
+    sensors = None
+    if "sensors" in t.data:
+        sensors = t.get("sensors", "list", what="a list of sensor names, one per column the model returns")
+        if not sensors or not all(isinstance(x, str) and x for x in sensors):
+            raise t.error("sensors", "a list of sensor names, one per column the model returns", sensors)
+        twice = sorted({x for x in sensors if sensors.count(x) > 1})
+        if twice:
+            raise t.error("sensors", "distinct sensor names", twice[0] + " twice")
+        sensors = tuple(sensors)
     nan = t.get("nan", "choice", "raise", choices=("raise", "falsify"))
     batch_size = t.get("batch_size", "int", 10_000, what="a positive integer")
     if batch_size < 1:
@@ -313,7 +253,7 @@ def _model(root: Table, base: Path) -> ModelSpec:
             raise t.error("parameters", "no parameters file with function (the [sampling] gives them)",
                           t.data["parameters"])
         return ModelSpec(function=_function_ref(t, "function"), path=base / t.get("path", "str", "."),
-                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size)
+                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size, sensors=sensors)
     for key in ("path", "options"):
         if key in t.data:
             raise t.error(key, f"no {key} with predictions (only with function)", t.data[key])
@@ -323,12 +263,26 @@ def _model(root: Table, base: Path) -> ModelSpec:
     for key, file in (("predictions", predictions), ("parameters", parameters)):
         if file.suffix.lower() not in (".npy", ".csv", ".parquet"):
             raise t.error(key, "a .npy, .csv or .parquet file", t.data[key])
-    return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size)
+    if sensors is not None and predictions.suffix.lower() != ".npy":
+        raise t.error("sensors", f"no sensors list with a {predictions.suffix} file (its columns are named; "
+                      "sensors gives the columns of a .npy array)", list(sensors))
+    return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size,
+                     sensors=sensors)
 
 
-def _measurements(root: Table, base: Path) -> tuple[Path | None, tuple[Sensor, ...], tuple[str, ...]]:
+def _measurements(root: Table, base: Path):
+    """(file, inline sensors, excluded names, decimal separator, encoding)."""
     t = root.table("measurements", {})
-    t.check_keys(("file", "sensors", "exclude"))
+    t.check_keys(("file", "sensors", "exclude", "decimal", "encoding"))
+    decimal = t.get("decimal", "choice", ".", choices=(".", ","))
+    encoding = t.get("encoding", "str", "utf-8", what="a text encoding (e.g. \"utf-8\", \"latin-1\")")
+    try:
+        codecs.lookup(encoding)
+    except LookupError:
+        raise t.error("encoding", "a text encoding Python knows (e.g. \"utf-8\", \"latin-1\")", encoding) from None
+    for key in ("decimal", "encoding"):
+        if key in t.data and "file" not in t.data:
+            raise t.error(key, f"no {key} without a measurements file", t.data[key])
     inline = tuple(t.tables("sensors")) + tuple(root.tables("sensors"))
     if ("file" in t.data) == bool(inline):
         raise t.error("file", "either file = 'measurements.csv' or inline [[measurements.sensors]] tables"
@@ -343,7 +297,7 @@ def _measurements(root: Table, base: Path) -> tuple[Path | None, tuple[Sensor, .
         location = s.get("location", "number", None)
         sensors.append(Sensor(s.get("name", "str", what="the sensor's name"), s.get("value", "number"),
                               type=s.get("type", "str", ""), location=location, unit=s.get("unit", "str", "")))
-    return file, tuple(sensors), tuple(exclude)
+    return file, tuple(sensors), tuple(exclude), decimal, encoding
 
 
 def distribution_values(t: Table, distribution: str, *, absolute_only: bool = False) -> tuple[float, float]:

@@ -113,8 +113,9 @@ def _prognosis(ident) -> str:
     rows = [[g.name, g.unit, g.model_low, g.model_high,
              f"[{g.uncertainty_interval[0]:.4g}, {g.uncertainty_interval[1]:.4g}]" if g.uncertainty else "none",
              g.low, g.high] for g in ident.prognoses]
-    return _table(["quantity", "unit", "candidates min", "candidates max", "model uncertainty interval",
-                   "prognosis low", "prognosis high"], rows, left=2) + (
+    return _table(["quantity", "unit", "candidates predict: min", "candidates predict: max",
+                   "its model uncertainty interval (prediction − true)", "true value: low", "true value: high"],
+                  rows, left=2) + (
         "<p class='notes'>Prognosis range: [min q − b, max q − a] with [a, b] the central interval of the "
         "quantity's model uncertainty (true value = prediction − model error, as in Eq. 4).</p>")
 
@@ -122,18 +123,22 @@ def _prognosis(ident) -> str:
 def _thresholds(ident) -> str:
     table = ident.thresholds_table()
     suspects = set(ident.leave_one_out.suspects)
-    rows = [[row.sensor, row.type, row.location, row.unit, row.measured, row.uc_mean, row.uc_sd, row.low,
-             row.high, row.low_se, row.high_se, row.method, int(row.falsified), int(row.falsified_only_by),
-             int(row.candidates_without_sensor)]
-            for row in table.itertuples()]
-    html = _table(["sensor", "type", "location", "unit", "measured y", "U_c mean", "U_c sd", "T_low", "T_high",
-                   "SE T_low", "SE T_high", "bounds from", "falsified", "falsified only by it",
-                   "candidates without it"], rows, left=2,
-                  row_class=lambda k: "suspect" if k in suspects else "")
+    # The headers are thresholds.csv's column names, so the report and the file read alike.
+    rows = [[v if not isinstance(v, float) or col not in COUNTS else int(v) for col, v in zip(table.columns, row)]
+            for row in table.itertuples(index=False)]
+    html = _table(list(table.columns), rows, left=2, row_class=lambda k: "suspect" if k in suspects else "")
+    html += ("<p class='notes'>measured = y; uc_mean, uc_sd: mean and standard deviation of the combined "
+             "uncertainty U<sub>c</sub>; threshold_low, threshold_high: the bounds on the residual g(θ) − y "
+             "(Eqs. 5-6); the same columns as thresholds.csv.</p>")
+    if ident.sensor_mapping is not None:
+        html += f"<p>Model outputs matched to the sensors {escape(ident.mapping_text())}.</p>"
     excluded = ident.project.excluded
     if excluded:
         html += f"<p>Excluded from the identification: {escape(', '.join(s.name for s in excluded))}.</p>"
     return html
+
+
+COUNTS = ("falsified", "falsified_only_by", "candidates_without_sensor")
 
 
 def _sources(ident) -> str:

@@ -12,7 +12,7 @@ import io
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter
 
 CANDIDATE = "#1f6fb4"
 FALSIFIED = "#b0b0b0"
@@ -54,7 +54,28 @@ def _falsified(ident) -> tuple[np.ndarray, np.ndarray]:
     return s.parameters[~s.is_candidate], s.predictions[~s.is_candidate]
 
 
+def plain(text: str) -> str:
+    """Text shown as written: a ``$`` in a name must not start matplotlib's mathtext."""
+    return str(text).replace("$", r"\$")
+
+
+def short(v: float, _pos=None) -> str:
+    """A tick label of at most a few characters: 20000 -> '2e4', 0.5 -> '0.5'.
+
+    Examples
+    --------
+    >>> short(35000.0), short(0.25), short(-1.5e-6)
+    ('3.5e4', '0.25', '-1.5e-6')
+    """
+    text = f"{v:.3g}"
+    if "e" in text:
+        mantissa, exponent = text.split("e")
+        text = f"{mantissa}e{int(exponent)}"
+    return text
+
+
 def _sensor_labels(ax, names, axis="x") -> None:
+    names = [plain(n) for n in names]
     ticks = np.arange(len(names))
     rotation = 60 if len(names) > 8 else 0
     if axis == "x":
@@ -117,12 +138,24 @@ def residuals(ident) -> Figure:
 
 
 def _axis(ax, param, which: str) -> None:
+    """One parameter's axis: its domain, at most 4 short tick labels (x ones
+    turned 45 degrees), so labels never run into each other."""
     label = f"{param.name} [{param.unit}]" if param.unit else param.name
-    getattr(ax, f"set_{which}label")(label, fontsize=9)
+    getattr(ax, f"set_{which}label")(plain(label), fontsize=9)
     getattr(ax, f"set_{which}scale")("log" if param.scale == "log" else "linear")
     getattr(ax, f"set_{which}lim")(param.low, param.high)
+    axis = getattr(ax, f"{which}axis")
     if param.scale == "linear":
-        getattr(ax, f"{which}axis").set_major_locator(MaxNLocator(4))
+        axis.set_major_locator(MaxNLocator(4))
+        axis.set_major_formatter(FuncFormatter(short))
+    axis.set_minor_formatter(NullFormatter())
+    ax.tick_params(axis=which, labelsize=7)
+    if which == "x":
+        for tick in ax.get_xticklabels():
+            tick.set_rotation(45)
+            tick.set_horizontalalignment("right")
+            tick.set_rotation_mode("anchor")
+        ax.tick_params(axis="x", labelrotation=45)
 
 
 def _bins(values: np.ndarray, param) -> np.ndarray:
@@ -203,7 +236,7 @@ def parallel_coordinates(ident) -> Figure:
         ax.axvline(k, color="k", lw=0.8)
         ax.annotate(f"{param.high:.3g}", (k, 1.0), xytext=(3, 2), textcoords="offset points", fontsize=7)
         ax.annotate(f"{param.low:.3g}", (k, 0.0), xytext=(3, -9), textcoords="offset points", fontsize=7)
-    labels = [f"{q.name}" + (f" [{q.unit}]" if q.unit else "") + (" (log)" if q.scale == "log" else "")
+    labels = [plain(f"{q.name}" + (f" [{q.unit}]" if q.unit else "") + (" (log)" if q.scale == "log" else ""))
               for q in params]
     ax.set_xticks(x, labels, fontsize=9)
     ax.set_xlim(-0.3, p - 0.7 if p > 1 else 0.3)
@@ -228,10 +261,17 @@ def sensitivity(ident) -> Figure:
     left.set_ylabel("candidate models")
     left.legend(fontsize=8)
     left.set_title("Candidates against the size of the uncertainties", fontsize=10)
-    right.plot(s.phis, s.candidates_at_phi, "-" if s.phi_exact else ".-", color=CANDIDATE)
     right.axvline(phi, color="k", ls="--", lw=1, label=f"phi = {phi:g}")
     right.set_xlabel("target identification probability phi" + ("" if s.phi_exact else " (Monte Carlo grid)"))
-    right.set_ylabel("candidate models")
-    right.legend(fontsize=8)
     right.set_title("Candidates against phi", fontsize=10)
+    if s.phis.size and np.any(s.candidates_at_phi > 0):
+        right.plot(s.phis, s.candidates_at_phi, "-" if s.phi_exact else ".-", color=CANDIDATE)
+        right.set_ylabel("candidate models")
+    else:  # an all-zero curve on a meaningless axis says less than one sentence
+        top = f"{s.phis.max():.6g}" if s.phis.size else "1"
+        right.text(0.5, 0.5, f"No instance is a candidate\nat any phi up to {top}", ha="center", va="center",
+                   transform=right.transAxes, fontsize=10, color=ALERT)
+        right.set_yticks([])
+        right.set_xlim(min(0.0, phi), 1.0)
+    right.legend(fontsize=8)
     return fig

@@ -1,0 +1,98 @@
+"""``edmf-rs run``: check the project and the output folder, print the plan,
+run, write the outputs, print a short summary.
+
+Everything that can be refused is refused before the run: a project file or
+input that cannot be used, an ``--out`` that names a file or a folder holding
+other things than a previous run of this project (unless ``--force``), an
+output that would overwrite one of the project's inputs (always), a run over
+the size limits without ``--yes``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+from .plan import MAX_SECONDS, check_instances
+from .result import OUTPUT_FILES
+from .run import Project
+from .schema import ProjectError
+
+#: Written first into the output folder: the project file a run there belongs to.
+MARKER = ".edmf-rs-run"
+
+
+def default_out(project_file: str | Path) -> Path:
+    """The output folder next to the project file, named after it."""
+    project_file = Path(project_file)
+    return project_file.with_name(project_file.stem)
+
+
+def _previous_run_of(out: Path, project: Project) -> bool:
+    marker = out / MARKER
+    if marker.is_file():
+        return marker.read_text(encoding="utf-8").strip() == str(project.file.resolve())
+    try:
+        summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(summary, dict) and summary.get("project", {}).get("file") == project.file.name \
+        and summary.get("project", {}).get("name") == project.name
+
+
+def check_out(out: Path, project: Project, force: bool) -> None:
+    """Refuses an output folder the run must not write into (see the module docstring).
+
+    Raises
+    ------
+    ProjectError
+        ``--out`` names a file; or a non-empty folder that is not a previous
+        run of this project (without ``force``); or an output would replace
+        an input of the project (even with ``force``).
+    """
+    if out.exists() and not out.is_dir():
+        raise ProjectError(f"--out {out}: expected a folder, it is a file")
+    inputs = [f.resolve() for f in project.inputs]
+    for name in (*OUTPUT_FILES, MARKER):
+        target = (out / name).resolve()
+        if target in inputs:
+            raise ProjectError(f"--out {out}: the run would overwrite {target}, an input of {project.file.name}; "
+                               "choose another output folder")
+    if out.is_dir() and any(out.iterdir()) and not force and not _previous_run_of(out, project):
+        raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier run of {project.file.name}; "
+                           "choose an empty or new folder, or pass --force to write into it")
+
+
+def run_cli(project_path: str | Path, out: str | Path | None = None, progress: bool = True, *,
+            dry_run: bool = False, yes: bool = False, force: bool = False, threads: int | None = None) -> int:
+    """``edmf-rs run PROJECT.toml [--out DIR]``: the whole run; returns the exit status."""
+    started = time.perf_counter()
+    if threads is not None:
+        from .._core import set_num_threads
+
+        if threads < 1:
+            raise ProjectError(f"--threads: expected a positive number of threads, got {threads}")
+        set_num_threads(threads)
+    project = Project.from_toml(project_path)
+    out_dir = Path(out) if out is not None else default_out(project_path)
+    check_out(out_dir, project, force)
+    check_instances(project.n_instances, yes)
+    plan = project.check()
+    if dry_run:
+        print(plan.describe())
+        print(f"outputs: {out_dir}/ (dry run: nothing evaluated or written)")
+        return 0
+    print(plan.describe().splitlines()[0], file=sys.stderr)
+    identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
+    identification.write(out_dir)
+    print(identification.summary())
+    print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "
+          f"in {time.perf_counter() - started:.1f} s")
+    return 0
+
+
+__all__ = ["check_out", "default_out", "run_cli"]

@@ -1,0 +1,183 @@
+"""Errors that say where they come from (issue 12, part 6): the project's code
+failing is exit 1 and named, a bad project is exit 2, checks before the run."""
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from edmf_rs import cli
+from edmf_rs.project import Project, ProjectError
+from edmf_rs.project.errors import UserCodeError
+from edmf_rs.project.plan import RunTooLarge
+
+MODEL = textwrap.dedent("""
+    import sys
+    from pathlib import Path
+    import numpy as np
+
+    def fine(theta):
+        return np.column_stack([theta[:, 0], theta[:, 1]])
+
+    def boom(theta):
+        if (theta[:, 0] > 1.5).any():
+            bad = theta[theta[:, 0] > 1.5][0]
+            raise ZeroDivisionError(f"cannot model a = {bad[0]}")
+        return fine(theta)
+
+    def logged_wrong_shape(theta):
+        with open(Path(__file__).with_name("calls.log"), "a") as fh:
+            fh.write(f"{len(theta)}\\n")
+        return theta[:, :1]
+
+    def quits(theta):
+        if theta[0, 0] > 0.5:
+            sys.exit(0)
+        return fine(theta)
+
+    def edits(theta):
+        theta[:, 0] = 0.0
+        return fine(theta)
+
+    def q_fails(theta):
+        if (theta[:, 0] > 0.5).any():
+            raise RuntimeError("no load case")
+        return theta[:, 0]
+
+    def q_wrong(theta):
+        return np.zeros((len(theta), 2))
+""")
+PROJECT = textwrap.dedent("""
+    [parameters.a]
+    low = 0.0
+    high = 2.0
+    [parameters.b]
+    low = 0.0
+    high = 2.0
+    [sampling]
+    method = "grid"
+    points = { a = 21, b = 21 }
+    [model]
+    function = "m:FUNC"
+    batch_size = 100
+    [measurements]
+    file = "meas.csv"
+    [[uncertainty]]
+    name = "noise"
+    kind = "measurement"
+    distribution = "normal"
+    sd = 0.5
+""")
+
+
+def project(tmp_path: Path, func: str = "fine", extra: str = "") -> Path:
+    (tmp_path / "m.py").write_text(MODEL)
+    (tmp_path / "meas.csv").write_text("sensor,value\nS1,1.0\nS2,1.0\n")
+    path = tmp_path / "p.toml"
+    path.write_text(PROJECT.replace("FUNC", func) + extra)
+    return path
+
+
+def run(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "edmf_rs", *map(str, args)], capture_output=True, text=True)
+
+
+def test_model_exception_is_exit_1_naming_batch_instances_and_parameters(tmp_path):
+    path = project(tmp_path, "boom")
+    proc = run("run", path, "--out", tmp_path / "out", "--no-progress")
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    message = proc.stderr.strip().splitlines()[-1]
+    assert message.startswith(f"edmf-rs: error: {path}: model.function = 'm:boom' raised ZeroDivisionError: "
+                              "cannot model a = 1.6"), message
+    # grid in C order: a = 1.6 first at instance 16 * 21 = 336, in batch 3 (300..399)
+    assert "on batch 3 (instances 300..399); first failing instance: 336 (a=1.6, b=0)" in message
+    assert not (tmp_path / "out" / "summary.json").exists()
+    proc = run("run", path, "--out", tmp_path / "out", "--no-progress", "--traceback")
+    assert proc.returncode == 1 and "Traceback" in proc.stderr and "ZeroDivisionError" in proc.stderr
+
+
+def test_sys_exit_in_the_model_is_a_failure(tmp_path):
+    proc = run("run", project(tmp_path, "quits"), "--out", tmp_path / "out", "--no-progress")
+    assert proc.returncode == 1
+    assert "model.function = 'm:quits' called sys.exit(0)" in proc.stderr
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_prognosis_failure_names_the_prognosis(tmp_path):
+    extra = '\n[[prognosis]]\nname = "q"\nfunction = "m:q_fails"\n'
+    with pytest.raises(UserCodeError, match=r"prognosis\[0\]\.function = 'm:q_fails' raised RuntimeError: no load "
+                                            r"case, on \d+ candidates; first failing candidate: \d+ \(a="):
+        Project.from_toml(project(tmp_path, "fine", extra)).run(progress=False)
+
+
+def test_the_model_is_checked_on_two_instances_before_the_run(tmp_path):
+    path = project(tmp_path, "logged_wrong_shape")
+    proc = run("run", path, "--out", tmp_path / "out", "--no-progress")
+    assert proc.returncode == 2
+    assert "returned shape (2, 1) for 2 parameter sets, expected (2, 2)" in proc.stderr
+    assert (tmp_path / "calls.log").read_text().split() == ["2"]  # never on a whole batch
+
+
+def test_prognosis_shape_is_checked_before_the_run(tmp_path):
+    extra = '\n[[prognosis]]\nname = "q"\nfunction = "m:q_wrong"\n'
+    with pytest.raises(ProjectError, match=r"prognosis\[0\]\.function = 'm:q_wrong': returned shape \(2, 2\) for 2 "
+                                           r"instances, expected \(2,\)"):
+        Project.from_toml(project(tmp_path, "fine", extra)).check()
+
+
+def test_a_model_editing_theta_in_place_fails_instead_of_corrupting(tmp_path):
+    with pytest.raises(UserCodeError, match="read-only"):
+        Project.from_toml(project(tmp_path, "edits")).run(progress=False)
+
+
+def test_file_errors_name_the_project_file_and_the_folder(tmp_path):
+    path = project(tmp_path)
+    (tmp_path / "meas.csv").unlink()
+    with pytest.raises(ProjectError) as err:
+        Project.from_toml(path)
+    assert str(err.value) == (f"{path}: measurements.file: no such file 'meas.csv' (looked in {tmp_path.resolve()})")
+    with pytest.raises(ProjectError, match=r"no such project file \(looked in "):
+        Project.from_toml(tmp_path / "nowhere.toml")
+
+
+def test_oversized_grids_and_hypercubes_are_refused_with_the_count(tmp_path):
+    huge = PROJECT.replace("points = { a = 21, b = 21 }", "points = { a = 10_000_000_000, b = 10_000_000_000 }")
+    (tmp_path / "g.toml").write_text(huge)
+    with pytest.raises(ProjectError, match=r"sampling\.points: the grid 10,000,000,000 x 10,000,000,000 has "
+                                           r"100,000,000,000,000,000,000 instances, more than can be counted"):
+        Project.from_toml(tmp_path / "g.toml")
+    lhs = PROJECT.replace('method = "grid"\npoints = { a = 21, b = 21 }', 'method = "lhs"\nn = 1_000_000_000_000')
+    (tmp_path / "l.toml").write_text(lhs)
+    with pytest.raises(ProjectError, match=r"sampling\.n: a Latin hypercube of 1,000,000,000,000 instances is drawn "
+                                           r"whole .*method = 'sobol'"):
+        Project.from_toml(tmp_path / "l.toml")
+
+
+def test_runs_over_the_limits_need_yes(tmp_path, capsys):
+    path = project(tmp_path)
+    path.write_text(path.read_text().replace("points = { a = 21, b = 21 }", "points = { a = 100_000, b = 1_000_000 }"))
+    assert cli.main(["run", str(path), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "100,000,000,000 model instances, more than 10,000,000,000; rerun with --yes" in err
+    assert not (tmp_path / "out").exists()
+    small = Project.from_toml(project(tmp_path))
+    with pytest.raises(RunTooLarge, match=r"the run is estimated at .* \(441 instances; the first 100 took"):
+        small.run(progress=False, max_seconds=1e-12)
+
+
+def test_ctrl_c_while_the_command_imports_prints_one_line(tmp_path):
+    script = textwrap.dedent("""
+        import sys
+        class Interrupt:
+            def find_spec(self, name, path, target=None):
+                if name == "edmf_rs.project":
+                    raise KeyboardInterrupt
+        sys.meta_path.insert(0, Interrupt())
+        sys.argv[0] = "/usr/bin/edmf-rs"
+        import edmf_rs
+    """)
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert proc.stderr == "edmf-rs: interrupted\n"
+    assert proc.returncode != 0
