@@ -7,6 +7,7 @@
 
 pub mod avx2;
 pub mod avx512;
+pub mod short;
 
 use std::arch::x86_64::*;
 
@@ -46,6 +47,11 @@ pub trait Lanes: Copy {
     unsafe fn inside512(lanes: u32, p: Self::V512, low: Self::V512, high: Self::V512) -> u32;
     /// Bits of the lanes in `lanes` where `p` is NaN. # Safety: AVX-512F is available.
     unsafe fn nan512(lanes: u32, p: Self::V512) -> u32;
+    /// A lane permutation for `permute512`: lane `l` takes lane `idx[l]` (the
+    /// first `W512` entries are used). # Safety: AVX-512F is available.
+    unsafe fn index512(idx: &[i32; 16]) -> __m512i;
+    /// Lanes of `p` rearranged by an index from `index512`. # Safety: AVX-512F is available.
+    unsafe fn permute512(idx: __m512i, p: Self::V512) -> Self::V512;
 }
 
 impl Lanes for f64 {
@@ -79,6 +85,18 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512d) -> u32 {
         _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes as __mmask8, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn index512(idx: &[i32; 16]) -> __m512i {
+        _mm512_cvtepi32_epi64(_mm256_loadu_si256(idx.as_ptr() as *const __m256i))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn permute512(idx: __m512i, p: __m512d) -> __m512d {
+        _mm512_permutexvar_pd(idx, p)
     }
 }
 
@@ -114,5 +132,17 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512) -> u32 {
         _mm512_mask_cmp_ps_mask::<_CMP_UNORD_Q>(lanes as __mmask16, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn index512(idx: &[i32; 16]) -> __m512i {
+        _mm512_loadu_si512(idx.as_ptr() as *const __m512i)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn permute512(idx: __m512i, p: __m512) -> __m512 {
+        _mm512_permutexvar_ps(idx, p)
     }
 }
