@@ -8,6 +8,7 @@
 pub mod avx2;
 pub mod avx512;
 pub mod short;
+pub mod short_avx2;
 
 use std::arch::x86_64::*;
 
@@ -35,6 +36,10 @@ pub fn prefetch_ahead<T>(row: &[T]) {
 pub trait Lanes: Copy {
     /// Four values widened to f64. # Safety: `p` points to four readable values; AVX2 is available.
     unsafe fn load4(p: *const Self) -> __m256d;
+    /// The lanes of `m64` (f64 lanes, all ones = load) or of `m32` (the
+    /// same for 32-bit lanes) widened to f64, others 0; lanes left out are
+    /// never touched. # Safety: the selected lanes are readable; AVX2 is available.
+    unsafe fn maskload4(m64: __m256i, m32: __m128i, p: *const Self) -> __m256d;
 
     /// Lanes of an AVX-512 vector.
     const W512: usize;
@@ -59,6 +64,12 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx2")]
     unsafe fn load4(p: *const f64) -> __m256d {
         _mm256_loadu_pd(p)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn maskload4(m64: __m256i, _: __m128i, p: *const f64) -> __m256d {
+        _mm256_maskload_pd(p, m64)
     }
 
     const W512: usize = 8;
@@ -105,6 +116,12 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx2")]
     unsafe fn load4(p: *const f32) -> __m256d {
         _mm256_cvtps_pd(_mm_loadu_ps(p))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn maskload4(_: __m256i, m32: __m128i, p: *const f32) -> __m256d {
+        _mm256_cvtps_pd(_mm_maskload_ps(p, m32))
     }
 
     const W512: usize = 16;
