@@ -27,6 +27,8 @@ pub struct ShortRows<T: Prediction> {
     index: __m512i,
     /// Lanes holding a sensor in a unit of whole rows, per vector.
     lanes: [u32; 2],
+    /// Lanes loaded for a whole packed unit (`rows * k` values).
+    load: u32,
     k: usize,
     /// Lanes (= mask bits) per row slot: a power of two when packed.
     slot: usize,
@@ -101,6 +103,7 @@ impl<T: Prediction> ShortRows<T> {
             high,
             index: T::index512(&idx),
             lanes,
+            load: prefix(rows * k) as u32,
             k,
             slot,
             rows,
@@ -135,26 +138,34 @@ impl<T: Prediction> ShortRows<T> {
         (out, nan)
     }
 
+    /// `unit` for a whole unit (`R` rows, `G` vectors a row), with the masks
+    /// computed once in `new`.
+    ///
+    /// # Safety
+    /// As `unit`, with `n = R`.
+    #[inline(always)]
+    unsafe fn whole_unit<const R: usize, const G: usize>(&self, p: *const T) -> (u64, u64) {
+        let w = T::W512;
+        if R > 1 {
+            let v = T::permute512(self.index, T::load512(self.load, p));
+            let lanes = self.lanes[0];
+            let out = !T::inside512(lanes, v, self.low[0], self.high[0]) & lanes;
+            return (out as u64, T::nan512(lanes, v) as u64);
+        }
+        let (mut out, mut nan) = (0u64, 0u64);
+        for g in 0..G {
+            let lanes = self.lanes[g];
+            let v = T::load512(lanes, p.wrapping_add(w * g));
+            out |= ((!T::inside512(lanes, v, self.low[g], self.high[g]) & lanes) as u64) << (w * g);
+            nan |= (T::nan512(lanes, v) as u64) << (w * g);
+        }
+        (out, nan)
+    }
+
     /// Bits of one row slot (from bit 0).
     #[inline(always)]
     fn row_bits(&self) -> u64 {
         prefix(if self.rows > 1 { self.slot } else { 2 * T::W512 })
-    }
-
-    /// Pointer to unit `u` of `n` rows, and `n`: packed units start every
-    /// `rows * k` values of `packed`; others are row `u` of `m`.
-    #[inline(always)]
-    fn units<'a>(&self, m: Matrix<'a, T>) -> impl Iterator<Item = (&'a [T], usize)> + 'a {
-        let (rows, k, total) = (self.rows, self.k, m.rows());
-        // Packed units need rows back to back (checked by `new`'s caller).
-        let packed = (rows > 1).then(|| m.packed_rows().expect("rows back to back"));
-        (0..total.div_ceil(rows)).map(move |u| {
-            let n = rows.min(total - u * rows);
-            match packed {
-                Some(all) => (&all[u * rows * k..(u * rows + n) * k], n),
-                None => (m.row_slice(u).expect("contiguous rows"), 1),
-            }
-        })
     }
 
     /// Writes each row's verdict (1 falsified, 0 candidate) to `out`; returns
@@ -166,20 +177,7 @@ impl<T: Prediction> ShortRows<T> {
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
     pub unsafe fn screen(&self, m: Matrix<'_, T>, out: &mut [u32]) -> usize {
-        assert!(out.len() == m.rows() && m.cols() == self.k);
-        let (field, slot) = (self.row_bits(), self.slot);
-        let mut candidates = 0;
-        let mut o = out.iter_mut();
-        for (rows, n) in self.units(m) {
-            super::prefetch_ahead(rows);
-            let (bits, _) = self.unit(rows.as_ptr(), n);
-            for (r, v) in o.by_ref().take(n).enumerate() {
-                let rejected = (bits >> (r * slot)) & field != 0;
-                *v = rejected as u32;
-                candidates += !rejected as usize;
-            }
-        }
-        candidates
+        self.dispatch::<false>(m, out, &mut Tally::zeros(0))
     }
 
     /// Writes each row's rejecting-sensor count to `out` and adds its
@@ -191,49 +189,99 @@ impl<T: Prediction> ShortRows<T> {
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
     pub unsafe fn diagnose(&self, m: Matrix<'_, T>, out: &mut [u32], t: &mut Tally) -> usize {
-        assert!(out.len() == m.rows() && m.cols() == self.k && t.per_sensor.len() == self.k);
-        let (field, slot, w) = (self.row_bits(), self.slot, T::W512);
+        assert!(t.per_sensor.len() == self.k);
+        self.dispatch::<true>(m, out, t)
+    }
+
+    /// The pass compiled for this layout: rows per unit and vectors per row
+    /// as constants, so that the per-row work unrolls and its shifts are
+    /// immediates (about a third of the instructions of a generic loop).
+    #[inline]
+    #[target_feature(enable = "avx512f,popcnt")]
+    unsafe fn dispatch<const DIAG: bool>(&self, m: Matrix<'_, T>, out: &mut [u32], t: &mut Tally) -> usize {
+        assert!(out.len() == m.rows() && m.cols() == self.k);
+        match (self.rows, self.vectors) {
+            (1, 1) => self.run::<1, 1, DIAG>(m, out, t),
+            (1, _) => self.run::<1, 2, DIAG>(m, out, t),
+            (2, _) => self.run::<2, 1, DIAG>(m, out, t),
+            (4, _) => self.run::<4, 1, DIAG>(m, out, t),
+            (8, _) => self.run::<8, 1, DIAG>(m, out, t),
+            _ => self.run::<16, 1, DIAG>(m, out, t),
+        }
+    }
+
+    /// One pass over the rows of `m`, `R` rows per unit (packed when R > 1),
+    /// `G` vectors per row; diagnostics into `t` when `DIAG`.
+    #[inline(always)]
+    unsafe fn run<const R: usize, const G: usize, const DIAG: bool>(
+        &self,
+        m: Matrix<'_, T>,
+        out: &mut [u32],
+        t: &mut Tally,
+    ) -> usize {
+        assert!(R == self.rows && (R == 1 || G == 1));
+        let (field, slot, w, k) = (self.row_bits(), self.slot, T::W512, self.k);
         let ones = _mm512_set1_epi32(1);
         // Per-lane counts in u32 lanes: a block has far fewer than 2^32 rows.
         let (mut per_lane, mut only_lane) = ([_mm512_setzero_si512(); 2], [_mm512_setzero_si512(); 2]);
         let (mut candidates, mut invalid) = (0usize, 0u64);
-        let mut o = out.iter_mut();
-        for (rows, n) in self.units(m) {
-            super::prefetch_ahead(rows);
-            let (bits, nan) = self.unit(rows.as_ptr(), n);
+        let packed = if R > 1 {
+            m.packed_rows().expect("rows back to back")
+        } else {
+            &[]
+        };
+        let total = m.rows();
+        for u in 0..total.div_ceil(R) {
+            let n = R.min(total - u * R);
+            let (bits, nan) = if R == 1 {
+                self.whole_unit::<R, G>(m.row_slice(u).expect("contiguous rows").as_ptr())
+            } else if n == R {
+                self.whole_unit::<R, G>(packed.as_ptr().add(u * R * k))
+            } else {
+                // The last, partial unit of packed rows.
+                self.unit(packed.as_ptr().add(u * R * k), n)
+            };
+            let o = &mut out[u * R..u * R + n];
             let mut single = 0u64;
-            for (r, v) in o.by_ref().take(n).enumerate() {
-                let f = bits & (field << (r * slot));
-                let count = f.count_ones();
-                *v = count;
-                candidates += (count == 0) as usize;
-                // The one rejecting sensor's bit, for rows rejected by one only.
-                single |= f & ((count == 1) as u64).wrapping_neg();
+            // `R` constant: unrolled, the shifts are immediates.
+            for r in 0..R {
+                if r < n {
+                    let f = bits & (field << (r * slot));
+                    let count = f.count_ones();
+                    o[r] = if DIAG { count } else { (count != 0) as u32 };
+                    candidates += (count == 0) as usize;
+                    // The one rejecting sensor's bit, for rows rejected by one only.
+                    single |= f & ((count == 1) as u64).wrapping_neg();
+                }
             }
-            if nan != 0 {
-                // Rare: a NaN row is never a candidate, counted once.
-                invalid += (0..n).filter(|r| (nan >> (r * slot)) & field != 0).count() as u64;
-            }
-            for g in 0..self.vectors {
-                let (b, s) = ((bits >> (w * g)) as __mmask16, (single >> (w * g)) as __mmask16);
-                per_lane[g] = _mm512_mask_add_epi32(per_lane[g], b, per_lane[g], ones);
-                only_lane[g] = _mm512_mask_add_epi32(only_lane[g], s, only_lane[g], ones);
-            }
-        }
-        let mut lanes = [[0u32; 16]; 4];
-        for (dst, v) in lanes.iter_mut().zip(per_lane.iter().chain(&only_lane)) {
-            _mm512_storeu_si512(dst.as_mut_ptr() as *mut __m512i, *v);
-        }
-        // Lane of sensor j in slot r: r * slot + j (packed), else j over both vectors.
-        let lane = |counts: &[[u32; 16]], l: usize| counts[l / w][l % w] as u64;
-        for j in 0..self.k {
-            for r in 0..self.rows {
-                let l = if self.rows > 1 { r * slot + j } else { j };
-                t.per_sensor[j] += lane(&lanes[..2], l);
-                t.only_by[j] += lane(&lanes[2..], l);
+            if DIAG {
+                if nan != 0 {
+                    // Rare: a NaN row is never a candidate, counted once.
+                    invalid += (0..n).filter(|r| (nan >> (r * slot)) & field != 0).count() as u64;
+                }
+                for g in 0..G {
+                    let (b, s) = ((bits >> (w * g)) as __mmask16, (single >> (w * g)) as __mmask16);
+                    per_lane[g] = _mm512_mask_add_epi32(per_lane[g], b, per_lane[g], ones);
+                    only_lane[g] = _mm512_mask_add_epi32(only_lane[g], s, only_lane[g], ones);
+                }
             }
         }
-        t.invalid += invalid;
+        if DIAG {
+            let mut lanes = [[0u32; 16]; 4];
+            for (dst, v) in lanes.iter_mut().zip(per_lane.iter().chain(&only_lane)) {
+                _mm512_storeu_si512(dst.as_mut_ptr() as *mut __m512i, *v);
+            }
+            // Lane of sensor j in slot r: r * slot + j (packed), else j over both vectors.
+            let lane = |counts: &[[u32; 16]], l: usize| counts[l / w][l % w] as u64;
+            for j in 0..k {
+                for r in 0..R {
+                    let l = if R > 1 { r * slot + j } else { j };
+                    t.per_sensor[j] += lane(&lanes[..2], l);
+                    t.only_by[j] += lane(&lanes[2..], l);
+                }
+            }
+            t.invalid += invalid;
+        }
         candidates
     }
 }
