@@ -243,7 +243,8 @@ impl<T: Prediction> ShortRows<T> {
             };
             let o = &mut out[u * R..u * R + n];
             let mut single = 0u64;
-            // `R` constant: unrolled, the shifts are immediates.
+            // `R` constant: unrolled, the shifts are immediates (hence the index).
+            #[allow(clippy::needless_range_loop)]
             for r in 0..R {
                 if r < n {
                     let f = bits & (field << (r * slot));

@@ -55,6 +55,7 @@ impl ShortRows4 {
     unsafe fn row<T: Prediction>(&self, row: &[T]) -> (u32, u32, [__m256i; 2]) {
         let (mut bits, mut nan) = (0u32, 0u32);
         let mut out = [_mm256_setzero_si256(); 2];
+        #[allow(clippy::needless_range_loop)] // g also offsets the row and shifts the bits
         for g in 0..2 {
             // `wrapping_add`: lanes past the row are masked off, never read.
             let p = T::maskload4(self.m64[g], self.m32[g], row.as_ptr().wrapping_add(4 * g));
