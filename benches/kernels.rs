@@ -93,6 +93,55 @@ fn isa_levels(c: &mut Criterion) {
     group.finish();
 }
 
+/// Short rows (5, 10 and 16 sensors; f64 and f32), the kernels alone on one
+/// thread at every level, worst case (every row a candidate) and typical (a
+/// few per cent candidates): 8 MB of predictions, so the cost per row shows
+/// rather than the memory's. `cargo bench -- short_rows`.
+fn short_rows(c: &mut Criterion) {
+    for n_m in [5usize, 10, 16] {
+        let n = (1 << 20) / n_m;
+        let data = values(n * n_m);
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let mut out = vec![0u32; n];
+        let mut group = c.benchmark_group(format!("short_rows_{n_m}"));
+        group.throughput(Throughput::Elements(n as u64));
+        for (case, half_width) in [("worst", 10.0), ("typical", 1.5)] {
+            let b =
+                SensorBounds::new(&vec![0.0; n_m], &vec![-half_width; n_m], &vec![half_width; n_m]).unwrap();
+            let plan = ScreenPlan::new(&b, &vec![0; n_m]);
+            for isa in Isa::available() {
+                let m = Matrix::row_major(&data, n, n_m).unwrap();
+                let m32 = Matrix::row_major(&data32, n, n_m).unwrap();
+                for (dtype, is32) in [("f64", false), ("f32", true)] {
+                    let id = BenchmarkId::new(format!("{case}/diagnose/{dtype}"), format!("{isa:?}"));
+                    group.bench_function(id, |bench| {
+                        bench.iter(|| {
+                            let mut t = Tally::zeros(n_m);
+                            if is32 {
+                                diagnose_with(isa, black_box(m32), &b, &mut out, &mut t);
+                            } else {
+                                diagnose_with(isa, black_box(m), &b, &mut out, &mut t);
+                            }
+                            t.invalid
+                        })
+                    });
+                    let id = BenchmarkId::new(format!("{case}/screen/{dtype}"), format!("{isa:?}"));
+                    group.bench_function(id, |bench| {
+                        bench.iter(|| {
+                            if is32 {
+                                screen_with(isa, black_box(m32), &b, &plan, &mut out)
+                            } else {
+                                screen_with(isa, black_box(m), &b, &plan, &mut out)
+                            }
+                        })
+                    });
+                }
+            }
+        }
+        group.finish();
+    }
+}
+
 /// A plain sum at the widest vectors this CPU has: the fastest way to read.
 fn bare_sum(values: &[f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
@@ -176,6 +225,6 @@ fn thresholds(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
-    targets = falsify, isa_levels, memory_floor, thresholds
+    targets = falsify, isa_levels, short_rows, memory_floor, thresholds
 }
 criterion_main!(benches);

@@ -25,6 +25,7 @@ the edmf_rs run in a subprocess.
 
     python benches/throughput.py --quick               # smoke run, a minute
     python benches/throughput.py --n 2000000 --nm 50   # one case
+    python benches/throughput.py --floor               # speed / read floor per n_m (throughput_floor.py)
     python benches/throughput.py                       # everything (10^5..10^8: long, needs disk)
 
 Timings are best-of-k with time.perf_counter; files are read warm (they
@@ -257,6 +258,11 @@ def bench_streaming(args, tmp: Path):
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--floor" in argv:  # the speed / floor table has its own options (throughput_floor.py)
+        import throughput_floor
+
+        return throughput_floor.main([a for a in argv if a != "--floor"])
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="smoke run: small N, few repeats")
     ap.add_argument("--n", type=int, nargs="+", help="N values (default 1e5 1e6 1e7 1e8)")

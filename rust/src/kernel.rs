@@ -201,6 +201,10 @@ pub(crate) fn screen_impl<T: Prediction>(
     }
 }
 
+/// Environment variable that caps the kernels at one level (`portable`,
+/// `avx2`, `avx512`); ignored if unknown or not run by this CPU.
+pub const ISA_ENV: &str = "EDMF_RS_ISA";
+
 /// Instruction-set level of the row kernels. All levels give identical
 /// results; the fastest one the CPU runs is chosen at run time, so one build
 /// is fast on new CPUs and still runs on old ones.
@@ -217,7 +221,9 @@ impl Isa {
         match self {
             Isa::Portable => true,
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            Isa::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("popcnt")
+            }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
                 std::arch::is_x86_feature_detected!("avx512f")
@@ -237,10 +243,28 @@ impl Isa {
             .collect()
     }
 
-    /// The fastest level this CPU runs (detected once; asked for every block of rows).
+    /// The level named `name` ("portable", "avx2" or "avx512", any case).
+    pub fn from_name(name: &str) -> Option<Isa> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "portable" => Some(Isa::Portable),
+            "avx2" => Some(Isa::Avx2),
+            "avx512" => Some(Isa::Avx512),
+            _ => None,
+        }
+    }
+
+    /// The fastest level this CPU runs, or the level named by the environment
+    /// variable [`ISA_ENV`] if the CPU runs it (to test every level through the
+    /// Python package, and to compare them). Read once; asked for every block.
     pub fn detect() -> Isa {
         static DETECTED: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
-        *DETECTED.get_or_init(|| *Isa::available().last().unwrap_or(&Isa::Portable))
+        *DETECTED.get_or_init(|| {
+            let forced = std::env::var(ISA_ENV).ok().and_then(|v| Isa::from_name(&v));
+            match forced {
+                Some(isa) if isa.supported() => isa,
+                _ => *Isa::available().last().unwrap_or(&Isa::Portable),
+            }
+        })
     }
 }
 

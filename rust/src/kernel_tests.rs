@@ -159,3 +159,107 @@ fn strided_view_matches_contiguous() {
     assert_eq!(tc, tf);
     assert_eq!(oc, [1, 0, 3]);
 }
+
+#[test]
+fn levels_are_named_for_the_environment_variable() {
+    assert_eq!(Isa::from_name("AVX512"), Some(Isa::Avx512));
+    assert_eq!(Isa::from_name(" avx2"), Some(Isa::Avx2));
+    assert_eq!(Isa::from_name("portable"), Some(Isa::Portable));
+    assert_eq!(Isa::from_name("sse9"), None);
+}
+
+/// Short rows (up to two vectors) in every layout the short-row kernels
+/// read: back to back (packed several to a vector), with a gap after each
+/// row (one row per vector), and column-major (portable path); row counts
+/// that leave a partial unit; all-candidate, all-falsified and mixed blocks.
+#[test]
+fn short_rows_match_portable_in_every_layout() {
+    let specials = [
+        0.5,
+        -0.5,
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        -2.0,
+        0.0,
+        1.0,
+    ];
+    for k in 1..=40usize {
+        let y: Vec<f64> = (0..k).map(|j| 0.25 * (j % 3) as f64).collect();
+        let lo: Vec<f64> = (0..k).map(|j| -0.25 - 0.25 * (j % 2) as f64).collect();
+        let hi: Vec<f64> = (0..k).map(|j| 0.5 + 0.25 * (j % 4) as f64).collect();
+        let b = SensorBounds::new(&y, &lo, &hi).unwrap();
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        for (rows, rate) in [(37usize, 1.0), (200, 0.0), (203, 100.0), (1, 2.0), (0, 1.0)] {
+            let mut state = 0x1234_5678_9ABC_DEF1u64 ^ (k * 1000 + rows) as u64;
+            let gap = 3; // values between rows in the strided layout
+            let mut wide = vec![0f64; rows * (k + gap)];
+            for i in 0..rows {
+                for j in 0..k {
+                    let u = crate::testing::uniform(&mut state);
+                    let special = specials[(u * 1e6) as usize % specials.len()];
+                    wide[i * (k + gap) + j] = y[j] + if u < rate / k as f64 { special } else { 0.0 };
+                }
+            }
+            let packed: Vec<f64> = (0..rows * k).map(|e| wide[(e / k) * (k + gap) + e % k]).collect();
+            let wide32: Vec<f32> = wide.iter().map(|&v| v as f32).collect();
+            let packed32: Vec<f32> = packed.iter().map(|&v| v as f32).collect();
+            let cm: Vec<f64> = (0..rows * k)
+                .map(|e| packed[(e % rows.max(1)) * k + e / rows.max(1)])
+                .collect();
+            let mc = Matrix::row_major(&packed, rows, k).unwrap();
+            let views64 = [
+                Matrix::new(&wide, rows, k, k + gap, 1).unwrap(),
+                Matrix::col_major(&cm, rows, k).unwrap(),
+                mc,
+            ];
+            let views32 = [
+                Matrix::row_major(&packed32, rows, k).unwrap(),
+                Matrix::new(&wide32, rows, k, k + gap, 1).unwrap(),
+            ];
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, mc, &b, &mut want, &mut tw);
+            let mut flags = vec![0u32; rows];
+            screen_with(Isa::Portable, mc, &b, &plan, &mut flags);
+            assert_eq!(flags, want.iter().map(|&n| (n > 0) as u32).collect::<Vec<_>>());
+            for isa in Isa::available() {
+                let mut got = vec![9u32; rows];
+                let check = |got: &[u32], t: &Tally, what: &str| {
+                    assert_eq!(
+                        (got, t),
+                        (&want[..], &tw),
+                        "{isa:?} {what}, {k} sensors, {rows} rows"
+                    )
+                };
+                for (v, m) in views64.iter().enumerate() {
+                    let mut t = Tally::zeros(k);
+                    diagnose_with(isa, *m, &b, &mut got, &mut t);
+                    check(&got, &t, &format!("f64 view {v}"));
+                    screen_with(isa, *m, &b, &plan, &mut got);
+                    assert_eq!(got, flags, "{isa:?} screen f64 view {v}, {k} sensors");
+                }
+                // f32 predictions have their own verdicts: compare with the portable f32 kernel.
+                for (v, m) in views32.iter().enumerate() {
+                    let (mut w32, mut t32) = (vec![0u32; rows], Tally::zeros(k));
+                    diagnose_with(Isa::Portable, *m, &b, &mut w32, &mut t32);
+                    let mut t = Tally::zeros(k);
+                    diagnose_with(isa, *m, &b, &mut got, &mut t);
+                    assert_eq!((&got, &t), (&w32, &t32), "{isa:?} f32 view {v}, {k} sensors");
+                    screen_with(isa, *m, &b, &plan, &mut got);
+                    let f32_flags: Vec<u32> = w32.iter().map(|&n| (n > 0) as u32).collect();
+                    assert_eq!(got, f32_flags, "{isa:?} screen f32 view {v}, {k} sensors");
+                }
+            }
+            if rows == 37 {
+                let rejected = want.iter().filter(|&&n| n > 0).count();
+                assert!(
+                    0 < rejected && rejected < rows,
+                    "{k} sensors: {rejected} rejected"
+                );
+            }
+            if rows == 200 {
+                assert!(want.iter().all(|&n| n == 0), "all candidates");
+            }
+        }
+    }
+}

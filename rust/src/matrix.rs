@@ -97,6 +97,15 @@ impl<'a, T: Copy> Matrix<'a, T> {
         }
     }
 
+    /// All rows as one slice when they follow each other with no gap (C order,
+    /// row stride = width), else `None`: short rows are then packed several
+    /// to a vector.
+    #[inline]
+    pub fn packed_rows(&self) -> Option<&'a [T]> {
+        let n = self.rows * self.cols;
+        (self.col_stride == 1 && (self.row_stride == self.cols || self.rows <= 1)).then(|| &self.data[..n])
+    }
+
     /// Rows `start..end` as a view of their own.
     pub fn slice_rows(&self, start: usize, end: usize) -> Matrix<'a, T> {
         assert!(start <= end && end <= self.rows, "row range out of bounds");

@@ -2,6 +2,7 @@
 //! with the f64 acceptance intervals; the last `k % 4` sensors of a row (and
 //! of a block) are tested one by one.
 
+use super::short_avx2::{takes, ShortRows4};
 use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
@@ -101,12 +102,23 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
     }
 }
 
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
-    diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
+    if takes(&m) {
+        // SAFETY: AVX2 and POPCNT are enabled; `takes` checked the row width
+        // and that rows are contiguous.
+        unsafe { ShortRows4::new(b).diagnose(m, out, t) };
+    } else {
+        diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
+    }
 }
 
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
-    screen_impl(m, b, plan, out, |row| row_rejected(row, b, plan))
+    if takes(&m) {
+        // SAFETY: as in `diagnose`.
+        unsafe { ShortRows4::new(b).screen(m, out) };
+    } else {
+        screen_impl(m, b, plan, out, |row| row_rejected(row, b, plan))
+    }
 }

@@ -2,6 +2,7 @@
 //! sixteen) with the acceptance intervals, straight into mask registers; the
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
+use super::short::{takes, ShortRows};
 use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
@@ -112,119 +113,22 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
     }
 }
 
-/// Acceptance intervals of a row of at most two vectors, held in registers
-/// for a whole block of rows: short rows are otherwise dominated by
-/// reloading them every row.
-struct ShortRow<T: Prediction> {
-    low: [T::V512; 2],
-    high: [T::V512; 2],
-    lanes: [u32; 2],
-    k: usize,
-}
-
-impl<T: Prediction> ShortRow<T> {
-    fn fits(k: usize) -> bool {
-        k <= 2 * T::W512
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn new(b: &SensorBounds) -> Self {
-        let (k, accept) = (b.len(), T::accepted(b));
-        assert!(Self::fits(k));
-        let lanes = [prefix(k.min(T::W512)), prefix(k.saturating_sub(T::W512))];
-        // SAFETY: AVX-512F is enabled; masked loads read only sensors below `k`.
-        // `wrapping_add`: group 1 of a row of one vector points past the data;
-        // its mask is empty, so nothing is read there.
-        let load = |v: &[T], g: usize| unsafe { T::load512(lanes[g], v.as_ptr().wrapping_add(T::W512 * g)) };
-        ShortRow {
-            low: [load(&accept[0], 0), load(&accept[0], 1)],
-            high: [load(&accept[1], 0), load(&accept[1], 1)],
-            lanes,
-            k,
-        }
-    }
-
-    /// (rejecting lanes, NaN lanes) of lane group `g`.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn group(&self, row: &[T], g: usize) -> (u32, u32) {
-        assert!(row.len() == self.k);
-        let lanes = self.lanes[g];
-        // SAFETY: AVX-512F is enabled; only the lanes below `k` are read.
-        unsafe {
-            let p = T::load512(lanes, row.as_ptr().wrapping_add(T::W512 * g));
-            (
-                !T::inside512(lanes, p, self.low[g], self.high[g]) & lanes,
-                T::nan512(lanes, p),
-            )
-        }
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn rejected(&self, row: &[T]) -> bool {
-        super::prefetch_ahead(row);
-        let second = if self.lanes[1] != 0 {
-            self.group(row, 1).0
-        } else {
-            0
-        };
-        (self.group(row, 0).0 | second) != 0
-    }
-
-    /// Like `diagnose_row`, but the per-sensor counts stay in registers
-    /// (`counts`, one u32 lane per sensor) until the caller flushes them.
-    #[inline]
-    #[target_feature(enable = "avx512f,popcnt,bmi1")]
-    fn diagnose(&self, row: &[T], counts: &mut [__m512i; 2]) -> (u32, bool, usize) {
-        super::prefetch_ahead(row);
-        let (mut rejects, mut nan) = (0u32, 0u32);
-        let groups = 1 + (self.lanes[1] != 0) as usize;
-        for (g, count) in counts.iter_mut().enumerate().take(groups) {
-            let (out, nans) = self.group(row, g);
-            *count = _mm512_mask_add_epi32(*count, out as __mmask16, *count, _mm512_set1_epi32(1));
-            rejects |= out << (T::W512 * g);
-            nan |= nans;
-        }
-        // Branch-free: which sensor rejects varies at random from row to row.
-        let first = (rejects.trailing_zeros() as usize).min(self.k.saturating_sub(1));
-        (rejects.count_ones(), nan != 0, first)
-    }
-}
-
-/// Rows per flush of the in-register u32 counts (they cannot overflow).
-const FLUSH_ROWS: usize = 1 << 30;
-
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
-    if !ShortRow::<T>::fits(b.len()) {
-        return diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts));
-    }
-    let short = ShortRow::<T>::new(b);
-    // Chunks of FLUSH_ROWS keep the u32 counts held in registers from overflowing.
-    for (c, out) in out.chunks_mut(FLUSH_ROWS).enumerate() {
-        let first = c * FLUSH_ROWS;
-        let mut counts = [_mm512_setzero_si512(); 2];
-        let rows = m.slice_rows(first, first + out.len());
-        diagnose_impl(rows, b, out, t, |row, _, _| short.diagnose(row, &mut counts));
-        let mut lanes = [[0u32; 16]; 2];
-        for (lane, count) in lanes.iter_mut().zip(counts) {
-            // SAFETY: AVX-512F is enabled; `lane` holds sixteen u32.
-            unsafe { _mm512_storeu_si512(lane.as_mut_ptr() as *mut __m512i, count) };
-        }
-        let sensors = lanes[0][..T::W512].iter().chain(&lanes[1][..T::W512]);
-        for (total, &add) in t.per_sensor.iter_mut().zip(sensors) {
-            *total += add as u64;
-        }
+    if takes(&m) {
+        // SAFETY: AVX-512F and POPCNT are enabled; `takes` checked the row
+        // width and that rows are contiguous; packed only if back to back.
+        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).diagnose(m, out, t) };
+    } else {
+        diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
     }
 }
 
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
-    if ShortRow::<T>::fits(b.len()) {
-        let short = ShortRow::<T>::new(b);
-        screen_impl(m, b, plan, out, |row| short.rejected(row))
+    if takes(&m) {
+        // SAFETY: as in `diagnose`.
+        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, out) };
     } else {
         screen_impl(m, b, plan, out, |row| row_rejected(row, b, plan))
     }

@@ -7,6 +7,8 @@
 
 pub mod avx2;
 pub mod avx512;
+pub mod short;
+pub mod short_avx2;
 
 use std::arch::x86_64::*;
 
@@ -34,6 +36,10 @@ pub fn prefetch_ahead<T>(row: &[T]) {
 pub trait Lanes: Copy {
     /// Four values widened to f64. # Safety: `p` points to four readable values; AVX2 is available.
     unsafe fn load4(p: *const Self) -> __m256d;
+    /// The lanes of `m64` (f64 lanes, all ones = load) or of `m32` (the
+    /// same for 32-bit lanes) widened to f64, others 0; lanes left out are
+    /// never touched. # Safety: the selected lanes are readable; AVX2 is available.
+    unsafe fn maskload4(m64: __m256i, m32: __m128i, p: *const Self) -> __m256d;
 
     /// Lanes of an AVX-512 vector.
     const W512: usize;
@@ -46,6 +52,11 @@ pub trait Lanes: Copy {
     unsafe fn inside512(lanes: u32, p: Self::V512, low: Self::V512, high: Self::V512) -> u32;
     /// Bits of the lanes in `lanes` where `p` is NaN. # Safety: AVX-512F is available.
     unsafe fn nan512(lanes: u32, p: Self::V512) -> u32;
+    /// A lane permutation for `permute512`: lane `l` takes lane `idx[l]` (the
+    /// first `W512` entries are used). # Safety: AVX-512F is available.
+    unsafe fn index512(idx: &[i32; 16]) -> __m512i;
+    /// Lanes of `p` rearranged by an index from `index512`. # Safety: AVX-512F is available.
+    unsafe fn permute512(idx: __m512i, p: Self::V512) -> Self::V512;
 }
 
 impl Lanes for f64 {
@@ -53,6 +64,12 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx2")]
     unsafe fn load4(p: *const f64) -> __m256d {
         _mm256_loadu_pd(p)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn maskload4(m64: __m256i, _: __m128i, p: *const f64) -> __m256d {
+        _mm256_maskload_pd(p, m64)
     }
 
     const W512: usize = 8;
@@ -80,6 +97,18 @@ impl Lanes for f64 {
     unsafe fn nan512(lanes: u32, p: __m512d) -> u32 {
         _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes as __mmask8, p, p) as u32
     }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn index512(idx: &[i32; 16]) -> __m512i {
+        _mm512_cvtepi32_epi64(_mm256_loadu_si256(idx.as_ptr() as *const __m256i))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn permute512(idx: __m512i, p: __m512d) -> __m512d {
+        _mm512_permutexvar_pd(idx, p)
+    }
 }
 
 impl Lanes for f32 {
@@ -87,6 +116,12 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx2")]
     unsafe fn load4(p: *const f32) -> __m256d {
         _mm256_cvtps_pd(_mm_loadu_ps(p))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn maskload4(_: __m256i, m32: __m128i, p: *const f32) -> __m256d {
+        _mm256_cvtps_pd(_mm_maskload_ps(p, m32))
     }
 
     const W512: usize = 16;
@@ -114,5 +149,17 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512) -> u32 {
         _mm512_mask_cmp_ps_mask::<_CMP_UNORD_Q>(lanes as __mmask16, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn index512(idx: &[i32; 16]) -> __m512i {
+        _mm512_loadu_si512(idx.as_ptr() as *const __m512i)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn permute512(idx: __m512i, p: __m512) -> __m512 {
+        _mm512_permutexvar_ps(idx, p)
     }
 }

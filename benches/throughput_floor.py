@@ -1,0 +1,89 @@
+"""edmf_rs.falsify against the read floor, side by side in one run.
+
+The floor is ``np.max`` over the two halves of the same array on two threads
+at once (vectorised, GIL released): no method that reads every prediction can
+beat it. For each sensor count, dtype and case (worst: every instance a
+candidate; typical: about 95 % falsified) the table gives the floor, then
+``edmf_rs.falsify`` with and without diagnostics (``keep_violations=False``,
+default thread count), each as milliseconds and as speed / floor (1.0 = at the
+floor). Every array holds the same number of bytes (``--mb``), so rows of 5
+sensors are many and rows of 200 few.
+
+    python benches/throughput.py --floor                      # the whole table
+    python benches/throughput.py --floor --nm 5 10 --dtype f64 --cases worst
+
+Timings are best-of-k (``--repeat``) with time.perf_counter (wall) and
+time.process_time (CPU seconds of all threads of this process). On a shared
+machine a thread waiting for a core inflates wall time but not CPU time, so
+the CPU ratio is the steadier one there; ``os.getloadavg()`` is printed with
+the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import edmf_rs
+import numpy as np
+import time
+
+from throughput_methods import in_memory, machine, read_floor
+
+DTYPES = {"f64": np.float64, "f32": np.float32}
+
+
+def falsify(p, y, t, diagnostics: bool):
+    return edmf_rs.falsify(p, y, t, diagnostics=diagnostics, keep_violations=False, progress=False)
+
+
+def best(fn, repeat: int) -> tuple[float, float]:
+    """Least wall and least CPU seconds (all threads) over `repeat` runs."""
+    wall, cpu = [], []
+    for _ in range(repeat):
+        w, c = time.perf_counter(), time.process_time()
+        fn()
+        cpu.append(time.process_time() - c)
+        wall.append(time.perf_counter() - w)
+    return min(wall), min(cpu)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--nm", type=int, nargs="+", default=[5, 10, 16, 50, 200], help="sensor counts")
+    ap.add_argument("--dtype", nargs="+", default=["f64", "f32"], choices=sorted(DTYPES))
+    ap.add_argument("--cases", nargs="+", default=["worst", "typical"], choices=["worst", "typical"])
+    ap.add_argument("--mb", type=float, default=800.0, help="array size in MB (default 800: 1e7 x 10 f64)")
+    ap.add_argument("--repeat", type=int, default=5, help="best of k (default 5)")
+    args = ap.parse_args(argv)
+    print(machine())
+    print(f"edmf_rs threads: {edmf_rs.get_num_threads()}; load average at start: "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(f"{'n_m':>4} {'dtype':>5} {'case':>7} {'rows':>11}  {'method':<14} {'ms':>8} {'floor ms':>9} "
+          f"{'speed/floor':>11} {'cpu ms':>8} {'floor cpu':>9} {'cpu ratio':>9}")
+    with ThreadPoolExecutor(2) as pool:
+        for n_m in args.nm:
+            for name in args.dtype:
+                dtype = DTYPES[name]
+                n = max(1, int(args.mb * 1e6) // (n_m * np.dtype(dtype).itemsize))
+                for case in args.cases:
+                    p, y, t = in_memory(n, n_m, case, dtype)
+                    results = [falsify(p, y, t, d) for d in (True, False)]
+                    share = results[1].n_candidates / n
+                    assert results[0].n_candidates == results[1].n_candidates
+                    assert (case == "worst") == (share == 1.0), (case, share)
+                    floor = best(lambda: read_floor(p, pool, 2), args.repeat)
+                    times = {"diagnostics": best(lambda: falsify(p, y, t, True), args.repeat),
+                             "no diagnostics": best(lambda: falsify(p, y, t, False), args.repeat)}
+                    for method, (s, c) in {"floor": floor, **times}.items():
+                        print(f"{n_m:>4} {name:>5} {case:>7} {n:>11,}  {method:<14} {s * 1e3:>8.1f} "
+                              f"{floor[0] * 1e3:>9.1f} {floor[0] / s:>11.2f} {c * 1e3:>8.1f} "
+                              f"{floor[1] * 1e3:>9.1f} {floor[1] / c:>9.2f}", flush=True)
+                    del p, results
+    print(f"load average at end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
