@@ -97,6 +97,14 @@ impl<'a, T: Copy> Matrix<'a, T> {
         }
     }
 
+    /// All elements in row-major order as one slice when the view is
+    /// C-contiguous (so it can be read as one run of memory), else `None`.
+    pub fn contiguous(&self) -> Option<&'a [T]> {
+        let n = self.rows * self.cols;
+        let c_order = self.col_stride == 1 && (self.row_stride == self.cols || self.rows <= 1);
+        (c_order || n == 0).then(|| &self.data[..n.min(self.data.len())])
+    }
+
     /// Rows `start..end` as a view of their own.
     pub fn slice_rows(&self, start: usize, end: usize) -> Matrix<'a, T> {
         assert!(start <= end && end <= self.rows, "row range out of bounds");

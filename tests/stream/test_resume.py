@@ -211,7 +211,8 @@ def test_checkpointed_run_equals_plain_run_and_reloads(tmp_path, kind):
     got = edmf_rs.falsify(source(), y, t, chunk_rows=CHUNK, checkpoint=folder, checkpoint_every=0)
     _same(got, edmf_rs.falsify(source(), y, t))
     assert _state(folder)["complete"] and len(_state(folder)["parts"]) > 10
-    _same(edmf_rs.falsify(source(), y, t, checkpoint=folder), got)  # an iterable: first chunk checked only
+    # A generator is not drawn again to be checked unless trusted; the others are re-read in full.
+    _same(edmf_rs.falsify(source(), y, t, checkpoint=folder, trust_iterable=kind == "iterable"), got)
 
 
 def test_refuses_to_resume_with_other_inputs(tmp_path):
@@ -237,13 +238,11 @@ def test_refuses_to_resume_with_other_inputs(tmp_path):
     with pytest.raises(ValueError, match="other n_instances"):
         edmf_rs.falsify(predictions, y, t, checkpoint=folder)
     changed = [c.copy() for c in chunks]
-    changed[4][-1, 0] += 1e-9  # the last instance done
-    with pytest.raises(ValueError, match="instance 4999 of the predictions differs"):
-        edmf_rs.falsify(changed, y, t, checkpoint=folder)
-    changed = [c.copy() for c in chunks]
-    changed[0][0, 0] += 1e-9
-    with pytest.raises(ValueError, match="instance 0 of the predictions differs"):
-        edmf_rs.falsify(changed, y, t, checkpoint=folder)
+    for k, i in [(4, -1), (0, 0), (2, 17)]:  # the last instance done, the first, one between
+        changed = [c.copy() for c in chunks]
+        changed[k][i, 0] += 1e-9
+        with pytest.raises(ValueError, match=r"predictions differ from the run saved .* in instances 0\.\.4999"):
+            edmf_rs.falsify(changed, y, t, checkpoint=folder)
     with pytest.raises(ValueError, match="ended after 3000 instances"):
         edmf_rs.falsify(chunks[:3], y, t, checkpoint=folder)
     assert _state(folder)["n_done"] == 5000  # refusals leave the folder alone
@@ -264,9 +263,13 @@ def test_finishing_tidies_only_the_files_the_run_wrote(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         edmf_rs.falsify(stop_after(8), y, t, checkpoint=folder)
     n_parts = len(_state(folder)["parts"])
-    ours = [f"part-{n_parts + 5:06d}.candidates.npy", ".part-000003.candidates.npy.77.ab12.tmp",
-            ".state.json.77.cd34.tmp"]
-    theirs = ["results.csv", ".draft.tmp", "part-000001.simulation.npy", "part-x.candidates.npy"]
+    token = "0123456789abcdef" * 2  # atomic.py's temporary names: .<name>.<pid>.<32 hex>.tmp
+    # What a crash can leave: temporaries of the files the state lists.
+    ours = [f".part-000000.candidates.npy.77.{token}.tmp", f".state.json.77.{token}.tmp"]
+    # Files that only look like ours: a part the state does not list, temporaries of other names.
+    theirs = ["results.csv", ".draft.tmp", "part-000001.simulation.npy", "part-x.candidates.npy",
+              f"part-{n_parts + 5:06d}.candidates.npy", f".notes.txt.77.{token}.tmp",
+              ".state.json.77.cd34.tmp"]
     for name in ours + theirs:
         (folder / name).write_bytes(b"left over")
     _same(edmf_rs.falsify(iter(chunks), y, t, checkpoint=folder), edmf_rs.falsify(predictions, y, t))
@@ -521,20 +524,21 @@ def test_a_finished_checkpoint_refuses_other_inputs(tmp_path):
     other[-1] += 1.0  # same shape, a different last instance
     done = edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run", progress=False)
     _same(edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run", progress=False), done)
-    with pytest.raises(ValueError, match="differs from the run saved"):
+    with pytest.raises(ValueError, match=r"predictions differ from the run saved .* instances 0\.\.19999"):
         edmf_rs.falsify(other, y, t, checkpoint=tmp_path / "run", progress=False)
     theta = _theta()
     edmf_rs.falsify_model(_model, theta, y, t, checkpoint=tmp_path / "model", progress=False)
     changed = theta.copy()
     changed[-1] += 0.5
-    with pytest.raises(ValueError, match="differs from the run saved"):
+    with pytest.raises(ValueError, match="parameters differ from the run saved"):
         edmf_rs.falsify_model(_model, changed, y, t, checkpoint=tmp_path / "model", progress=False)
 
 
-def test_a_finished_checkpoint_over_an_iterable_checks_its_first_chunk(tmp_path):
+def test_a_finished_checkpoint_over_a_generator_is_returned_only_when_trusted(tmp_path):
     predictions, y, t = _case()
     chunks = [predictions[i:i + CHUNK] for i in range(0, ROWS, CHUNK)]
     done = edmf_rs.falsify(iter(chunks), y, t, checkpoint=tmp_path / "run", progress=False)
+    assert _state(tmp_path / "run")["rereadable"] is False  # marked: the run's input was one-pass
     drawn = []
 
     def drawing(blocks):
@@ -542,17 +546,24 @@ def test_a_finished_checkpoint_over_an_iterable_checks_its_first_chunk(tmp_path)
             drawn.append(len(b))
             yield b
 
-    _same(edmf_rs.falsify(drawing(chunks), y, t, checkpoint=tmp_path / "run", progress=False), done)
-    assert drawn == [CHUNK]  # one chunk checked, the rest not drawn
-    with pytest.raises(ValueError, match="instance 0 of the predictions differs"):
-        edmf_rs.falsify(iter([predictions[::-1]]), y, t, checkpoint=tmp_path / "run", progress=False)
-    with pytest.raises(ValueError, match="predictions are empty"):
-        edmf_rs.falsify(iter([]), y, t, checkpoint=tmp_path / "run", progress=False)
-    edmf_rs.falsify(iter([]), y, t, checkpoint=tmp_path / "empty", progress=False)  # finished over 0
-    with pytest.raises(ValueError, match="finished run over 0 instances, but the predictions have some"):
-        edmf_rs.falsify(iter(chunks), y, t, checkpoint=tmp_path / "empty", progress=False)
+    with pytest.raises(ValueError, match="one-pass iterator .* trust_iterable=True"):
+        edmf_rs.falsify(drawing(chunks), y, t, checkpoint=tmp_path / "run", progress=False)
+    _same(edmf_rs.falsify(drawing(chunks), y, t, checkpoint=tmp_path / "run", progress=False,
+                          trust_iterable=True), done)
+    assert drawn == []  # trusted: not drawn at all
+    _same(edmf_rs.falsify(chunks, y, t, checkpoint=tmp_path / "run", progress=False), done)  # a list: checked
+    with pytest.raises(ValueError, match=r"differ from the run saved .* instances 0\.\.19999"):
+        edmf_rs.falsify([predictions[::-1]], y, t, checkpoint=tmp_path / "run", progress=False)
+    with pytest.raises(ValueError, match="ended after 0 instances"):
+        edmf_rs.falsify([np.empty((0, N_M))], y, t, checkpoint=tmp_path / "run", progress=False)
+    edmf_rs.falsify([np.empty((0, N_M))], y, t, checkpoint=tmp_path / "empty", progress=False)  # over 0
+    with pytest.raises(ValueError, match="finished run over 0 instances, but the predictions have more"):
+        edmf_rs.falsify(chunks, y, t, checkpoint=tmp_path / "empty", progress=False)
     theta = _theta()
     batches = [theta[i:i + 700] for i in range(0, len(theta), 700)]
     edmf_rs.falsify_model(_model, iter(batches), y, t, checkpoint=tmp_path / "model", progress=False)
-    with pytest.raises(ValueError, match="instance 0 of the parameters differs"):
-        edmf_rs.falsify_model(_model, iter(batches[::-1]), y, t, checkpoint=tmp_path / "model", progress=False)
+    with pytest.raises(ValueError, match="parameters are a one-pass iterator"):
+        edmf_rs.falsify_model(_model, iter(batches), y, t, checkpoint=tmp_path / "model", progress=False)
+    with pytest.raises(ValueError, match="parameters differ from the run saved"):
+        edmf_rs.falsify_model(_model, batches[::-1], y, t, checkpoint=tmp_path / "model", progress=False)
+    edmf_rs.falsify_model(_model, batches, y, t, checkpoint=tmp_path / "model", progress=False)

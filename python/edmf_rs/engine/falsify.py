@@ -19,7 +19,8 @@ from .thresholds import Thresholds
 
 def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,
             keep_violations: bool | None = None, chunk_rows: int | None = None, progress: bool = True,
-            checkpoint: str | os.PathLike | None = None, checkpoint_every: float = 60.0) -> FalsificationResult:
+            checkpoint: str | os.PathLike | None = None, checkpoint_every: float = 60.0,
+            trust_iterable: bool = False) -> FalsificationResult:
     """Falsify every model instance whose residual leaves the thresholds at any sensor.
 
     An instance (row of ``predictions``) is a candidate iff for every sensor i,
@@ -71,6 +72,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     if chunk_rows is not None:
         chunk_rows = positive_int(chunk_rows, "chunk_rows")
     diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    trust_iterable = flag(trust_iterable, "trust_iterable")
     every = every_seconds(checkpoint_every)
     if keep_violations is None:
         keep_violations = diagnostics and not isinstance(predictions, (str, bytes, os.PathLike, np.memmap))
@@ -83,14 +85,13 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     fields = ("n_violated",) if keep_violations else ()
     fp = fingerprint("falsify", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
                      n_instances=source.n_instances)
-    with open_run(checkpoint, fp, every, fields) as run:
-        if run.finished:
-            reread = source.n_instances is not None  # an iterable is not drained again: its first chunk is checked
-            rest = source.chunks(run.start, run.row_check) if reread else source.chunks()
-            return run.saved_result(rest, y, thresholds, reread)
+    with open_run(checkpoint, fp, every, fields, rereadable=source.rereadable) as run:
+        if run.finished:  # every instance is re-read and checked, unless a one-pass iterator is trusted
+            rest = source.chunks(run.start, run.skipped) if source.rereadable else None
+            return run.saved_result(rest, y, thresholds, trusted=trust_iterable)
         acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
                               keep_violations=keep_violations)
-        chunks = source.chunks(run.start, run.row_check)
+        chunks = source.chunks(run.start, run.skipped)
         with bar(source.n_instances, progress and _streams(source, chunk_rows), initial=run.start) as progress_bar:
             try:
                 for chunk in chunks:  # Eq. 8, chunk after chunk, in Rust with the GIL released
