@@ -55,6 +55,12 @@ def _model(theta):
     return theta[:, :1] * (1.0 + 0.2 * i) - theta[:, 1:2] * (i - 1.5)
 
 
+#: Module-level state of spy models (closure values are part of a model's fingerprint).
+SPY: dict = {}
+#: Calls a spy model counts (see test_an_unwritable_folder_is_refused_before_any_work).
+CALLS: list[int] = []
+
+
 def _theta(n=ROWS):
     return np.random.default_rng(5).uniform(-1.0, 1.0, (n, 2))
 
@@ -85,10 +91,13 @@ CHILD = textwrap.dedent('''
 
     atomic.os.replace = dying_replace
     calls = [0]
+    # In a dict: the model's fingerprint hashes the simple module-level values
+    # it reads (a str or int here would make the killed run another model).
+    control = {"phase": phase, "kill_at": kill_at}
 
     def model(theta):
         calls[0] += 1
-        if phase == "model" and calls[0] == kill_at:
+        if control["phase"] == "model" and calls[0] == control["kill_at"]:
             os.kill(os.getpid(), signal.SIGKILL)
         i = np.arange(y.shape[0])
         return theta[:, :1] * (1.0 + 0.2 * i) - theta[:, 1:2] * (i - 1.5)
@@ -281,10 +290,11 @@ def test_finishing_tidies_only_the_files_the_run_wrote(tmp_path):
 def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
     predictions, y, t = _case(100)
     predictions = np.nan_to_num(predictions)
-    calls = []
+    calls = CALLS  # module-level: a closure over a growing list would make each call another model
+    calls.clear()
 
     def model(p):
-        calls.append(len(p))
+        CALLS.append(len(p))
         return predictions[:len(p)]
 
     (tmp_path / "a-file").write_text("x")
@@ -381,19 +391,19 @@ def test_ctrl_c_in_the_model_then_resume_without_reevaluating(tmp_path):
     theta = _theta()
     _, y, t = _case()
     folder = tmp_path / "run"
-    seen = []
+    seen = SPY["seen"] = []
+    SPY["interrupt"] = True
 
-    def model(batch):
-        seen.append(batch[0].copy())
-        if len(seen) == 9 and interrupt[0]:
+    def model(batch):  # its state module-level: closure values are part of the model's fingerprint
+        SPY["seen"].append(batch[0].copy())
+        if len(SPY["seen"]) == 9 and SPY["interrupt"]:
             raise KeyboardInterrupt
         return _model(batch)
 
-    interrupt = [True]
     with pytest.raises(KeyboardInterrupt):
         edmf_rs.falsify_model(model, theta, y, t, batch_size=1000, checkpoint=folder, checkpoint_every=3600)
     assert _state(folder)["n_done"] == 8000  # batches 0..7 saved on Ctrl-C
-    interrupt[0], seen[:] = False, []
+    SPY["interrupt"], seen[:] = False, []
     resumed = edmf_rs.falsify_model(model, theta, y, t, batch_size=1000, checkpoint=folder)
     np.testing.assert_array_equal(seen[0], theta[8000])  # nothing done is evaluated again
     assert len(seen) == 12
@@ -404,17 +414,17 @@ def test_model_error_keeps_the_work_done(tmp_path):
     theta = _theta()
     _, y, t = _case()
     folder = tmp_path / "run"
-    broken = [True]
+    SPY["broken"] = True
 
     def model(batch):
-        if broken[0] and batch[0, 0] == theta[13_000, 0]:
+        if SPY["broken"] and batch[0, 0] == theta[13_000, 0]:
             raise RuntimeError("licence server down")
         return _model(batch)
 
     with pytest.raises(RuntimeError, match="licence server down"):
         edmf_rs.falsify_model(model, iter(np.array_split(theta, 20)), y, t, checkpoint=folder)
     assert _state(folder)["n_done"] == 13_000
-    broken[0] = False
+    SPY["broken"] = False
     _same(edmf_rs.falsify_model(model, iter(np.array_split(theta, 20)), y, t, checkpoint=folder),
           edmf_rs.falsify_model(_model, theta, y, t))
 
@@ -423,14 +433,14 @@ def test_a_folder_serves_one_run_at_a_time(tmp_path):
     theta = _theta(4_000)
     _, y, t = _case()
     folder = tmp_path / "run"
-    refused = []
+    refused = SPY["refused"] = []
 
     def model(batch):
         # A second run on the same folder while the first holds it is refused,
         # and leaves the first run's work alone.
         with pytest.raises(ValueError, match="in use by another run") as info:
             edmf_rs.falsify(_model(batch), y, t, checkpoint=folder)
-        refused.append(str(info.value))
+        SPY["refused"].append(str(info.value))
         return _model(batch)
 
     got = edmf_rs.falsify_model(model, theta, y, t, checkpoint=folder, batch_size=1_000)
@@ -443,15 +453,15 @@ def test_a_folder_serves_one_run_at_a_time(tmp_path):
 def test_a_process_the_model_forks_does_not_keep_the_folder_locked(tmp_path):
     theta = _theta(2_000)
     _, y, t = _case()
-    children = []
+    children = SPY["children"] = []
 
     def model(batch):
-        if not children:  # e.g. a worker pool started by fork, outliving the run
+        if not SPY["children"]:  # e.g. a worker pool started by fork, outliving the run
             pid = os.fork()
             if pid == 0:
                 time.sleep(30)
                 os._exit(0)
-            children.append(pid)
+            SPY["children"].append(pid)
         return _model(batch)
 
     try:

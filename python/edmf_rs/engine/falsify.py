@@ -56,11 +56,33 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         A folder where the run saves its candidates and position as it goes
         (every ``checkpoint_every`` seconds, on Ctrl-C and at the end). Calling
         again with the same folder and inputs resumes after the last saved
-        chunk (or returns the finished result); other inputs are refused
-        (checked by their measurements, thresholds, options, length and
-        first and last rows done; a finished run over an iterable returns its
-        saved result after checking only the iterable's first chunk). A folder
-        serves one run at a time: a second run on it meanwhile is refused.
+        chunk (or returns the finished result); other inputs are refused,
+        checked by their measurements, thresholds, options, length and a
+        content digest of every instance already done, re-read on resumption
+        (the error names the first block of instances that differs). A
+        folder serves one run at a time: a second run on it meanwhile is
+        refused.
+    trust_iterable
+        When the folder holds a finished run and ``predictions`` is a
+        one-pass iterator (e.g. a generator), return the saved result without
+        drawing it again to check it; without this, that case is refused
+        (ValueError), since checking would mean producing every chunk again.
+        Arrays, files and lists of chunks are always checked.
+
+    Raises
+    ------
+    ValueError
+        On inputs of the wrong shape or value, and when ``checkpoint`` holds a
+        run made with other inputs or its files were changed since.
+    TypeError
+        On inputs of the wrong type.
+
+    Examples
+    --------
+    >>> import numpy as np, edmf_rs
+    >>> t = edmf_rs.Thresholds(np.array([-1.0]), np.array([1.0]))
+    >>> edmf_rs.falsify(np.array([[0.5], [2.0]]), np.zeros(1), t, progress=False).candidate_indices
+    array([0])
     """
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")

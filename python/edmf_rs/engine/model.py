@@ -17,6 +17,7 @@ import numpy as np
 from .. import _core
 from ..stream.checkpoint import every_seconds, fingerprint
 from ..stream.chunks import Skipped, as_chunk, skip_rows
+from ..stream.identity import model_fingerprint
 from ..stream.progress import bar
 from ._validate import finite_vector, flag, positive_int, real_array
 from .durable import open_run
@@ -158,7 +159,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     every = every_seconds(checkpoint_every)
     n_total = _known_length(parameters)
     fp = fingerprint("falsify_model", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
-                     nan=nan, model=_model_name(model), n_instances=n_total)
+                     nan=nan, model=model_fingerprint(model), n_instances=n_total)
     fields = ("n_violated",) if keep_violations else ()
     rereadable = n_total is not None or not isinstance(parameters, Iterator)
     with open_run(checkpoint, fp, every, fields + ("parameters", "predictions"), input_name="parameters",
@@ -233,10 +234,3 @@ def is_parameter_array(parameters) -> bool:
 
 def _known_length(parameters) -> int | None:
     return int(np.shape(parameters)[0]) if is_parameter_array(parameters) else None
-
-
-def _model_name(model) -> str:
-    """The model's qualified name, so resuming a folder with another model is refused."""
-    target = getattr(model, "func", model)  # functools.partial
-    name = getattr(target, "__qualname__", None) or type(target).__qualname__
-    return f"{getattr(target, '__module__', '') or ''}.{name}"

@@ -150,6 +150,14 @@ class Checkpoint:
             return None
         if isinstance(state.get("fingerprint"), dict):  # other inputs: say which before anything else
             self._check(state["fingerprint"])
+            for key, value in self.fingerprint.items():
+                if isinstance(value, dict) and "unhashable" in value:
+                    raise ValueError(
+                        f"checkpoint: {self.folder} holds a run, but this call's {key} cannot be fingerprinted "
+                        f"({value['unhashable']}), so whether it is the one the run was made with cannot be "
+                        f"checked; give the {key} a __edmf_fingerprint__() method returning what identifies "
+                        "it (JSON data), or pass another folder (or delete this one) to start over"
+                    )
         try:
             state_file.check_shape(state, self.fields)
             if state["rows"]["block_rows"] != _core.RowDigest.block_rows:
