@@ -175,13 +175,7 @@ fn block_digest(cols: usize, rows: usize, leaves: &[u64]) -> u128 {
 fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<u8>) -> u64 {
     if T::IS_LE_F64 {
         if let Some(values) = m.contiguous() {
-            // SAFETY: T is f64 on a little-endian target (IS_LE_F64), so the
-            // slice's memory is exactly the bytes the digest is defined on;
-            // u8 has no alignment or validity requirement.
-            let bytes = unsafe {
-                std::slice::from_raw_parts(values.as_ptr() as *const u8, std::mem::size_of_val(values))
-            };
-            return xxh3_64(bytes);
+            return xxh3_64(as_bytes(values));
         }
     }
     buf.clear();
@@ -189,22 +183,31 @@ fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<u8>) -> u64 {
     xxh3_64(buf)
 }
 
+/// The memory of `values`, which holds float64 in little-endian order
+/// (callers check `T::IS_LE_F64`).
+fn as_bytes<T: Value>(values: &[T]) -> &[u8] {
+    // SAFETY: any initialised memory may be read as u8 (no alignment or
+    // validity requirement), over exactly the slice's size.
+    unsafe { std::slice::from_raw_parts(values.as_ptr() as *const u8, std::mem::size_of_val(values)) }
+}
+
+/// Appends the rows' values as little-endian float64 bytes, row-major.
 fn append_rows<T: Value>(out: &mut Vec<u8>, m: Matrix<'_, T>) {
     let (rows, cols) = (m.rows(), m.cols());
-    let start = out.len();
-    out.resize(start + rows * cols * 8, 0);
-    let mut dst = out[start..].chunks_exact_mut(8);
+    let mut row_buf: Vec<f64> = Vec::with_capacity(cols);
+    out.reserve(rows * cols * 8);
     for i in 0..rows {
+        row_buf.clear();
         match m.row_slice(i) {
-            Some(row) => {
-                for (&v, d) in row.iter().zip(&mut dst) {
-                    d.copy_from_slice(&v.as_f64().to_le_bytes());
-                }
-            }
-            None => {
-                for (j, d) in (0..cols).zip(&mut dst) {
-                    d.copy_from_slice(&m.get(i, j).as_f64().to_le_bytes());
-                }
+            // A plain conversion loop the compiler vectorises (float32 -> float64).
+            Some(row) => row_buf.extend(row.iter().map(|&v| v.as_f64())),
+            None => row_buf.extend((0..cols).map(|j| m.get(i, j).as_f64())),
+        }
+        if cfg!(target_endian = "little") {
+            out.extend_from_slice(as_bytes(&row_buf));
+        } else {
+            for v in &row_buf {
+                out.extend_from_slice(&v.to_le_bytes());
             }
         }
     }
