@@ -259,8 +259,6 @@ def _match_worker_threads() -> None:
 
 
 def _size_pool(dask_worker) -> None:
-    # Called by client.run with the worker as argument (get_worker() only
-    # works inside tasks).
     n = dask_worker.state.nthreads
     if _core.get_num_threads() != n:
         _core.set_num_threads(n)
@@ -294,7 +292,9 @@ def _compute(tasks: list, client, progress: bool, rows=None) -> list:
         return list(dask.compute(*tasks))
     from distributed import as_completed
 
-    client.run(_size_pool)  # every worker, even those this run leaves idle
+    # No broadcast to the workers first (a worker lost meanwhile failed the
+    # whole call): each task sizes its worker's pool itself, and a task whose
+    # worker dies is rescheduled by Dask like any other.
     futures = client.compute(tasks)
     counts = [int(r) for r in rows] if rows is not None else [1] * len(futures)
     size = {f.key: c for f, c in zip(futures, counts)}

@@ -97,13 +97,20 @@ impl<'a, T: Copy> Matrix<'a, T> {
         }
     }
 
+    /// All elements in row-major order as one slice when the view is
+    /// C-contiguous (so it can be read as one run of memory), else `None`.
+    pub fn contiguous(&self) -> Option<&'a [T]> {
+        let n = self.rows * self.cols;
+        let c_order = self.col_stride == 1 && (self.row_stride == self.cols || self.rows <= 1);
+        (c_order || n == 0).then(|| &self.data[..n.min(self.data.len())])
+    }
+
     /// All rows as one slice when they follow each other with no gap (C order,
     /// row stride = width), else `None`: short rows are then packed several
     /// to a vector.
     #[inline]
     pub fn packed_rows(&self) -> Option<&'a [T]> {
-        let n = self.rows * self.cols;
-        (self.col_stride == 1 && (self.row_stride == self.cols || self.rows <= 1)).then(|| &self.data[..n])
+        self.contiguous()
     }
 
     /// Rows `start..end` as a view of their own.

@@ -1,6 +1,8 @@
 """Bad input raises ValueError/TypeError naming the argument and what was
 expected; no Rust panic ever reaches Python."""
 
+import os
+
 import edmf_rs
 import numpy as np
 import pytest
@@ -120,8 +122,13 @@ def test_bad_uncertainty_sources():
 
 
 def test_bad_thread_count():
-    with pytest.raises(ValueError, match="n: expected a positive number of threads"):
+    with pytest.raises(ValueError, match="n: expected a number of threads from 1 to"):
         edmf_rs.set_num_threads(0)
+    before = edmf_rs.get_num_threads()
+    for n in (2**40, 2**70, 64 * (os.cpu_count() or 1) + 1025):  # 2**40 used to never return
+        with pytest.raises(ValueError, match=f"n: expected a number of threads from 1 to .*got {min(n, 2**63 - 1)}"):
+            edmf_rs.set_num_threads(n)
+    assert edmf_rs.get_num_threads() == before
 
 
 def test_core_rejects_what_the_python_layer_would_have_caught():

@@ -160,3 +160,30 @@ def test_empty_batches_and_empty_1d_parameters_keep_shapes_and_dtypes(client):
     assert edask.falsify_model(one, np.arange(0.0), y, t, client=client, progress=False).candidate_parameters.shape == (0, 1)
     full = edmf_rs.falsify_model(one, np.zeros(5), y, t, progress=False)
     assert edmf_rs.concatenate([empty, full]).candidate_parameters.shape == (5, 1)
+
+
+def test_a_worker_lost_as_a_call_starts_does_not_fail_it(client, monkeypatch):
+    # A call used to broadcast to every worker first (client.run), which failed
+    # the whole call when a worker died meanwhile; now each task sizes its own
+    # worker's pool, and Dask reschedules the tasks of a lost worker.
+    predictions, y, t = _case()
+
+    def worker_died(*args, **kwargs):
+        raise OSError("Timed out trying to connect to a worker that died")
+
+    monkeypatch.setattr(client, "run", worker_died)
+    arr = da.from_array(predictions, chunks=(4_000, N_M))
+    _same(edask.falsify(arr, y, t, client=client), edmf_rs.falsify(predictions, y, t, keep_violations=False))
+
+
+def test_a_worker_killed_just_before_a_call(tmp_path):
+    import os
+    import signal
+
+    predictions, y, t = _case()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as c:
+        pids = c.run(os.getpid)
+        os.kill(next(iter(pids.values())), signal.SIGKILL)
+        arr = da.from_array(predictions, chunks=(4_000, N_M))
+        _same(edask.falsify(arr, y, t, client=c), edmf_rs.falsify(predictions, y, t, keep_violations=False))

@@ -55,6 +55,12 @@ def _model(theta):
     return theta[:, :1] * (1.0 + 0.2 * i) - theta[:, 1:2] * (i - 1.5)
 
 
+#: Module-level state of spy models (closure values are part of a model's fingerprint).
+SPY: dict = {}
+#: Calls a spy model counts (see test_an_unwritable_folder_is_refused_before_any_work).
+CALLS: list[int] = []
+
+
 def _theta(n=ROWS):
     return np.random.default_rng(5).uniform(-1.0, 1.0, (n, 2))
 
@@ -85,10 +91,13 @@ CHILD = textwrap.dedent('''
 
     atomic.os.replace = dying_replace
     calls = [0]
+    # In a dict: the model's fingerprint hashes the simple module-level values
+    # it reads (a str or int here would make the killed run another model).
+    control = {"phase": phase, "kill_at": kill_at}
 
     def model(theta):
         calls[0] += 1
-        if phase == "model" and calls[0] == kill_at:
+        if control["phase"] == "model" and calls[0] == control["kill_at"]:
             os.kill(os.getpid(), signal.SIGKILL)
         i = np.arange(y.shape[0])
         return theta[:, :1] * (1.0 + 0.2 * i) - theta[:, 1:2] * (i - 1.5)
@@ -211,7 +220,8 @@ def test_checkpointed_run_equals_plain_run_and_reloads(tmp_path, kind):
     got = edmf_rs.falsify(source(), y, t, chunk_rows=CHUNK, checkpoint=folder, checkpoint_every=0)
     _same(got, edmf_rs.falsify(source(), y, t))
     assert _state(folder)["complete"] and len(_state(folder)["parts"]) > 10
-    _same(edmf_rs.falsify(source(), y, t, checkpoint=folder), got)  # an iterable: first chunk checked only
+    # A generator is not drawn again to be checked unless trusted; the others are re-read in full.
+    _same(edmf_rs.falsify(source(), y, t, checkpoint=folder, trust_iterable=kind == "iterable"), got)
 
 
 def test_refuses_to_resume_with_other_inputs(tmp_path):
@@ -237,13 +247,11 @@ def test_refuses_to_resume_with_other_inputs(tmp_path):
     with pytest.raises(ValueError, match="other n_instances"):
         edmf_rs.falsify(predictions, y, t, checkpoint=folder)
     changed = [c.copy() for c in chunks]
-    changed[4][-1, 0] += 1e-9  # the last instance done
-    with pytest.raises(ValueError, match="instance 4999 of the predictions differs"):
-        edmf_rs.falsify(changed, y, t, checkpoint=folder)
-    changed = [c.copy() for c in chunks]
-    changed[0][0, 0] += 1e-9
-    with pytest.raises(ValueError, match="instance 0 of the predictions differs"):
-        edmf_rs.falsify(changed, y, t, checkpoint=folder)
+    for k, i in [(4, -1), (0, 0), (2, 17)]:  # the last instance done, the first, one between
+        changed = [c.copy() for c in chunks]
+        changed[k][i, 0] += 1e-9
+        with pytest.raises(ValueError, match=r"predictions differ from the run saved .* in instances 0\.\.4999"):
+            edmf_rs.falsify(changed, y, t, checkpoint=folder)
     with pytest.raises(ValueError, match="ended after 3000 instances"):
         edmf_rs.falsify(chunks[:3], y, t, checkpoint=folder)
     assert _state(folder)["n_done"] == 5000  # refusals leave the folder alone
@@ -264,9 +272,13 @@ def test_finishing_tidies_only_the_files_the_run_wrote(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         edmf_rs.falsify(stop_after(8), y, t, checkpoint=folder)
     n_parts = len(_state(folder)["parts"])
-    ours = [f"part-{n_parts + 5:06d}.candidates.npy", ".part-000003.candidates.npy.77.ab12.tmp",
-            ".state.json.77.cd34.tmp"]
-    theirs = ["results.csv", ".draft.tmp", "part-000001.simulation.npy", "part-x.candidates.npy"]
+    token = "0123456789abcdef" * 2  # atomic.py's temporary names: .<name>.<pid>.<32 hex>.tmp
+    # What a crash can leave: temporaries of the files the state lists.
+    ours = [f".part-000000.candidates.npy.77.{token}.tmp", f".state.json.77.{token}.tmp"]
+    # Files that only look like ours: a part the state does not list, temporaries of other names.
+    theirs = ["results.csv", ".draft.tmp", "part-000001.simulation.npy", "part-x.candidates.npy",
+              f"part-{n_parts + 5:06d}.candidates.npy", f".notes.txt.77.{token}.tmp",
+              ".state.json.77.cd34.tmp"]
     for name in ours + theirs:
         (folder / name).write_bytes(b"left over")
     _same(edmf_rs.falsify(iter(chunks), y, t, checkpoint=folder), edmf_rs.falsify(predictions, y, t))
@@ -278,10 +290,11 @@ def test_finishing_tidies_only_the_files_the_run_wrote(tmp_path):
 def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
     predictions, y, t = _case(100)
     predictions = np.nan_to_num(predictions)
-    calls = []
+    calls = CALLS  # module-level: a closure over a growing list would make each call another model
+    calls.clear()
 
     def model(p):
-        calls.append(len(p))
+        CALLS.append(len(p))
         return predictions[:len(p)]
 
     (tmp_path / "a-file").write_text("x")
@@ -378,19 +391,19 @@ def test_ctrl_c_in_the_model_then_resume_without_reevaluating(tmp_path):
     theta = _theta()
     _, y, t = _case()
     folder = tmp_path / "run"
-    seen = []
+    seen = SPY["seen"] = []
+    SPY["interrupt"] = True
 
-    def model(batch):
-        seen.append(batch[0].copy())
-        if len(seen) == 9 and interrupt[0]:
+    def model(batch):  # its state module-level: closure values are part of the model's fingerprint
+        SPY["seen"].append(batch[0].copy())
+        if len(SPY["seen"]) == 9 and SPY["interrupt"]:
             raise KeyboardInterrupt
         return _model(batch)
 
-    interrupt = [True]
     with pytest.raises(KeyboardInterrupt):
         edmf_rs.falsify_model(model, theta, y, t, batch_size=1000, checkpoint=folder, checkpoint_every=3600)
     assert _state(folder)["n_done"] == 8000  # batches 0..7 saved on Ctrl-C
-    interrupt[0], seen[:] = False, []
+    SPY["interrupt"], seen[:] = False, []
     resumed = edmf_rs.falsify_model(model, theta, y, t, batch_size=1000, checkpoint=folder)
     np.testing.assert_array_equal(seen[0], theta[8000])  # nothing done is evaluated again
     assert len(seen) == 12
@@ -401,17 +414,17 @@ def test_model_error_keeps_the_work_done(tmp_path):
     theta = _theta()
     _, y, t = _case()
     folder = tmp_path / "run"
-    broken = [True]
+    SPY["broken"] = True
 
     def model(batch):
-        if broken[0] and batch[0, 0] == theta[13_000, 0]:
+        if SPY["broken"] and batch[0, 0] == theta[13_000, 0]:
             raise RuntimeError("licence server down")
         return _model(batch)
 
     with pytest.raises(RuntimeError, match="licence server down"):
         edmf_rs.falsify_model(model, iter(np.array_split(theta, 20)), y, t, checkpoint=folder)
     assert _state(folder)["n_done"] == 13_000
-    broken[0] = False
+    SPY["broken"] = False
     _same(edmf_rs.falsify_model(model, iter(np.array_split(theta, 20)), y, t, checkpoint=folder),
           edmf_rs.falsify_model(_model, theta, y, t))
 
@@ -420,14 +433,14 @@ def test_a_folder_serves_one_run_at_a_time(tmp_path):
     theta = _theta(4_000)
     _, y, t = _case()
     folder = tmp_path / "run"
-    refused = []
+    refused = SPY["refused"] = []
 
     def model(batch):
         # A second run on the same folder while the first holds it is refused,
         # and leaves the first run's work alone.
         with pytest.raises(ValueError, match="in use by another run") as info:
             edmf_rs.falsify(_model(batch), y, t, checkpoint=folder)
-        refused.append(str(info.value))
+        SPY["refused"].append(str(info.value))
         return _model(batch)
 
     got = edmf_rs.falsify_model(model, theta, y, t, checkpoint=folder, batch_size=1_000)
@@ -440,15 +453,15 @@ def test_a_folder_serves_one_run_at_a_time(tmp_path):
 def test_a_process_the_model_forks_does_not_keep_the_folder_locked(tmp_path):
     theta = _theta(2_000)
     _, y, t = _case()
-    children = []
+    children = SPY["children"] = []
 
     def model(batch):
-        if not children:  # e.g. a worker pool started by fork, outliving the run
+        if not SPY["children"]:  # e.g. a worker pool started by fork, outliving the run
             pid = os.fork()
             if pid == 0:
                 time.sleep(30)
                 os._exit(0)
-            children.append(pid)
+            SPY["children"].append(pid)
         return _model(batch)
 
     try:
@@ -521,20 +534,21 @@ def test_a_finished_checkpoint_refuses_other_inputs(tmp_path):
     other[-1] += 1.0  # same shape, a different last instance
     done = edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run", progress=False)
     _same(edmf_rs.falsify(predictions, y, t, checkpoint=tmp_path / "run", progress=False), done)
-    with pytest.raises(ValueError, match="differs from the run saved"):
+    with pytest.raises(ValueError, match=r"predictions differ from the run saved .* instances 0\.\.19999"):
         edmf_rs.falsify(other, y, t, checkpoint=tmp_path / "run", progress=False)
     theta = _theta()
     edmf_rs.falsify_model(_model, theta, y, t, checkpoint=tmp_path / "model", progress=False)
     changed = theta.copy()
     changed[-1] += 0.5
-    with pytest.raises(ValueError, match="differs from the run saved"):
+    with pytest.raises(ValueError, match="parameters differ from the run saved"):
         edmf_rs.falsify_model(_model, changed, y, t, checkpoint=tmp_path / "model", progress=False)
 
 
-def test_a_finished_checkpoint_over_an_iterable_checks_its_first_chunk(tmp_path):
+def test_a_finished_checkpoint_over_a_generator_is_returned_only_when_trusted(tmp_path):
     predictions, y, t = _case()
     chunks = [predictions[i:i + CHUNK] for i in range(0, ROWS, CHUNK)]
     done = edmf_rs.falsify(iter(chunks), y, t, checkpoint=tmp_path / "run", progress=False)
+    assert _state(tmp_path / "run")["rereadable"] is False  # marked: the run's input was one-pass
     drawn = []
 
     def drawing(blocks):
@@ -542,17 +556,24 @@ def test_a_finished_checkpoint_over_an_iterable_checks_its_first_chunk(tmp_path)
             drawn.append(len(b))
             yield b
 
-    _same(edmf_rs.falsify(drawing(chunks), y, t, checkpoint=tmp_path / "run", progress=False), done)
-    assert drawn == [CHUNK]  # one chunk checked, the rest not drawn
-    with pytest.raises(ValueError, match="instance 0 of the predictions differs"):
-        edmf_rs.falsify(iter([predictions[::-1]]), y, t, checkpoint=tmp_path / "run", progress=False)
-    with pytest.raises(ValueError, match="predictions are empty"):
-        edmf_rs.falsify(iter([]), y, t, checkpoint=tmp_path / "run", progress=False)
-    edmf_rs.falsify(iter([]), y, t, checkpoint=tmp_path / "empty", progress=False)  # finished over 0
-    with pytest.raises(ValueError, match="finished run over 0 instances, but the predictions have some"):
-        edmf_rs.falsify(iter(chunks), y, t, checkpoint=tmp_path / "empty", progress=False)
+    with pytest.raises(ValueError, match="one-pass iterator .* trust_iterable=True"):
+        edmf_rs.falsify(drawing(chunks), y, t, checkpoint=tmp_path / "run", progress=False)
+    _same(edmf_rs.falsify(drawing(chunks), y, t, checkpoint=tmp_path / "run", progress=False,
+                          trust_iterable=True), done)
+    assert drawn == []  # trusted: not drawn at all
+    _same(edmf_rs.falsify(chunks, y, t, checkpoint=tmp_path / "run", progress=False), done)  # a list: checked
+    with pytest.raises(ValueError, match=r"differ from the run saved .* instances 0\.\.19999"):
+        edmf_rs.falsify([predictions[::-1]], y, t, checkpoint=tmp_path / "run", progress=False)
+    with pytest.raises(ValueError, match="ended after 0 instances"):
+        edmf_rs.falsify([np.empty((0, N_M))], y, t, checkpoint=tmp_path / "run", progress=False)
+    edmf_rs.falsify([np.empty((0, N_M))], y, t, checkpoint=tmp_path / "empty", progress=False)  # over 0
+    with pytest.raises(ValueError, match="finished run over 0 instances, but the predictions have more"):
+        edmf_rs.falsify(chunks, y, t, checkpoint=tmp_path / "empty", progress=False)
     theta = _theta()
     batches = [theta[i:i + 700] for i in range(0, len(theta), 700)]
     edmf_rs.falsify_model(_model, iter(batches), y, t, checkpoint=tmp_path / "model", progress=False)
-    with pytest.raises(ValueError, match="instance 0 of the parameters differs"):
-        edmf_rs.falsify_model(_model, iter(batches[::-1]), y, t, checkpoint=tmp_path / "model", progress=False)
+    with pytest.raises(ValueError, match="parameters are a one-pass iterator"):
+        edmf_rs.falsify_model(_model, iter(batches), y, t, checkpoint=tmp_path / "model", progress=False)
+    with pytest.raises(ValueError, match="parameters differ from the run saved"):
+        edmf_rs.falsify_model(_model, batches[::-1], y, t, checkpoint=tmp_path / "model", progress=False)
+    edmf_rs.falsify_model(_model, batches, y, t, checkpoint=tmp_path / "model", progress=False)

@@ -7,9 +7,11 @@ interface, whichever kind it is:
 
 - :class:`Ephemeral` (no ``checkpoint`` folder): every call is free and the
   result is read straight from the accumulator;
-- :class:`Durable` (a folder): it resumes where the folder left off, records
-  the rows it must recognise on resumption, saves when due, on errors and at
-  the end, and reads the finished result back from the folder.
+- :class:`Durable` (a folder): it resumes where the folder left off after
+  checking every instance already done against the digests saved (the
+  source hands the skipped rows to ``skipped``), records the digest of every
+  chunk done, saves when due, on errors and at the end, and reads the
+  finished result back from the folder.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..stream.checkpoint import Checkpoint, digest, save_on_error
+from ..stream.checkpoint import Checkpoint, save_on_error
 from .result import FalsificationResult
 from .thresholds import Thresholds
 
@@ -49,7 +51,7 @@ class Ephemeral:
 
     start = 0
     finished = False
-    row_check = None
+    skipped = None
 
     def __enter__(self) -> Ephemeral:
         return self
@@ -90,18 +92,18 @@ class Ephemeral:
 class Durable:
     """A run saved in a checkpoint folder (see :mod:`edmf_rs.stream.checkpoint`).
 
-    ``start`` is the first instance still to do, ``row_check`` the check a
-    resumed source applies to the rows it skips, ``finished`` whether the
-    folder already holds the whole run.
+    ``start`` is the first instance still to do, ``skipped`` the check a
+    resumed source applies to every row it skips (all rows before
+    ``start``), ``finished`` whether the folder already holds the whole run.
     """
 
     def __init__(self, folder, fingerprint: dict, every: float, fields: tuple[str, ...] = (),
-                 input_name: str = "predictions"):
-        self._ckpt = Checkpoint(folder, fingerprint, every, fields, input_name=input_name)
+                 input_name: str = "predictions", rereadable: bool = True):
+        self._ckpt = Checkpoint(folder, fingerprint, every, fields, input_name=input_name,
+                                rereadable=rereadable)
         self.start = self._ckpt.n_done
         self.finished = self._ckpt.complete
-        self.row_check = self._ckpt.verify_row
-        self._tail: tuple[int, np.ndarray] | None = None  # last instance done, recognised on resumption
+        self.skipped = self._ckpt.verify_skipped
 
     def __enter__(self) -> Durable:
         return self
@@ -115,52 +117,49 @@ class Durable:
         return self._ckpt.extra
 
     def saved_result(self, rest, measurements: np.ndarray, thresholds: Thresholds,
-                     reread: bool = True) -> FalsificationResult:
+                     trusted: bool = False) -> FalsificationResult:
         """The finished run's result, once the input is confirmed to be the
-        same: ``rest`` is the input from instance ``start`` on (``reread``:
-        an array or file, whose skipped rows were checked) or, for an iterable
-        that is not drained again, the input from its first instance."""
-        if reread:
+        same: ``rest`` is the input from instance ``start`` on, whose skipped
+        rows are checked as it is drained. ``trusted``: ``rest`` is None, a
+        one-pass iterator the caller vouches for (``trust_iterable=True``)."""
+        if rest is None and not trusted:
+            self._ckpt.refuse_unchecked()
+        if rest is not None:
             self._ckpt.confirm_finished(rest)
-        else:
-            self._ckpt.confirm_first_row(rest)
         return FalsificationResult(thresholds=thresholds, measurements=measurements,
                                    **self._ckpt.saved(thresholds.n_sensors))
 
     def done(self, first: int, rows: np.ndarray) -> None:
-        if not len(rows):
-            return
-        if first == 0:
-            self._ckpt.first_row = digest(rows[0])
-        self._tail = (first + len(rows) - 1, np.array(rows[-1], copy=True))
+        if len(rows):
+            self._ckpt.record(first, rows)  # the digest a resumption checks this chunk against
 
     def due(self) -> bool:
         return self._ckpt.due()
 
     def save(self, acc, kept=None, **extra) -> None:
         self._ckpt.extra.update(extra)
-        self._ckpt.flush(acc, self._tail, kept)
+        self._ckpt.flush(acc, kept)
 
     def save_on_error(self, acc, exc: BaseException, kept=None, **extra) -> None:
         """Keeps the work done before ``exc`` (the failing chunk left no trace in ``acc``)."""
         self._ckpt.extra.update(extra)
-        save_on_error(self._ckpt, acc, self._tail, exc, kept)
+        save_on_error(self._ckpt, acc, exc, kept)
 
     def result(self, acc, measurements: np.ndarray, thresholds: Thresholds, kept=None,
                **extra) -> FalsificationResult:
         """Saves the final state and reads the whole run back from the folder."""
         self._ckpt.extra.update(extra)
-        self._ckpt.flush(acc, self._tail, kept, final=True)
+        self._ckpt.flush(acc, kept, final=True)
         return FalsificationResult(thresholds=thresholds, measurements=measurements,
                                    **self._ckpt.saved(thresholds.n_sensors))
 
 
 def open_run(folder, fingerprint: dict, every: float, fields: tuple[str, ...] = (),
-             input_name: str = "predictions") -> Ephemeral | Durable:
+             input_name: str = "predictions", rereadable: bool = True) -> Ephemeral | Durable:
     """A :class:`Durable` run in ``folder``, or an :class:`Ephemeral` one when it is None."""
     if folder is None:
         return Ephemeral()
-    return Durable(folder, fingerprint, every, fields, input_name)
+    return Durable(folder, fingerprint, every, fields, input_name, rereadable)
 
 
 __all__ = ["Durable", "Ephemeral", "from_accumulator", "open_run", "readonly"]

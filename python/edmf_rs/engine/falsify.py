@@ -19,7 +19,8 @@ from .thresholds import Thresholds
 
 def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: bool = True,
             keep_violations: bool | None = None, chunk_rows: int | None = None, progress: bool = True,
-            checkpoint: str | os.PathLike | None = None, checkpoint_every: float = 60.0) -> FalsificationResult:
+            checkpoint: str | os.PathLike | None = None, checkpoint_every: float = 60.0,
+            trust_iterable: bool = False) -> FalsificationResult:
     """Falsify every model instance whose residual leaves the thresholds at any sensor.
 
     An instance (row of ``predictions``) is a candidate iff for every sensor i,
@@ -55,13 +56,20 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         A folder where the run saves its candidates and position as it goes
         (every ``checkpoint_every`` seconds, on Ctrl-C and at the end). Calling
         again with the same folder and inputs resumes after the last saved
-        chunk (or returns the finished result); other inputs are refused
-        (checked by their measurements, thresholds, options, length and
-        first and last rows done; a finished run over an iterable returns its
-        saved result after checking only the iterable's first chunk). A folder
-        serves one run at a time: a second run on it meanwhile is refused.
+        chunk (or returns the finished result); other inputs are refused,
+        checked by their measurements, thresholds, options, length and a
+        content digest of every instance already done, re-read on resumption
+        (the error names the first block of instances that differs). A
+        folder serves one run at a time: a second run on it meanwhile is
+        refused.
     checkpoint_every : float, default 60.0
         Seconds between saves of the checkpoint.
+    trust_iterable : bool, default False
+        When the folder holds a finished run and ``predictions`` is a
+        one-pass iterator (e.g. a generator), return the saved result without
+        drawing it again to check it; without this, that case is refused
+        (ValueError), since checking would mean producing every chunk again.
+        Arrays, files and lists of chunks are always checked.
 
     Returns
     -------
@@ -78,8 +86,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         If ``measurements`` is not a finite vector with one value per
         threshold, the predictions do not have one column per sensor,
         ``keep_violations`` is asked without ``diagnostics``, or
-        ``checkpoint`` holds a run made with other inputs, is in use by
-        another run, or cannot be written.
+        ``checkpoint`` holds a run made with other inputs (or its files were
+        changed since), is in use by another run, or cannot be written.
     CheckpointError
         If saving the checkpoint fails during the run (e.g. a full disk); the
         folder keeps its last saved state.
@@ -108,6 +116,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     if chunk_rows is not None:
         chunk_rows = positive_int(chunk_rows, "chunk_rows")
     diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
+    trust_iterable = flag(trust_iterable, "trust_iterable")
     every = every_seconds(checkpoint_every)
     if keep_violations is None:
         keep_violations = diagnostics and not isinstance(predictions, (str, bytes, os.PathLike, np.memmap))
@@ -120,14 +129,13 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     fields = ("n_violated",) if keep_violations else ()
     fp = fingerprint("falsify", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
                      n_instances=source.n_instances)
-    with open_run(checkpoint, fp, every, fields) as run:
-        if run.finished:
-            reread = source.n_instances is not None  # an iterable is not drained again: its first chunk is checked
-            rest = source.chunks(run.start, run.row_check) if reread else source.chunks()
-            return run.saved_result(rest, y, thresholds, reread)
+    with open_run(checkpoint, fp, every, fields, rereadable=source.rereadable) as run:
+        if run.finished:  # every instance is re-read and checked, unless a one-pass iterator is trusted
+            rest = source.chunks(run.start, run.skipped) if source.rereadable else None
+            return run.saved_result(rest, y, thresholds, trusted=trust_iterable)
         acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
                               keep_violations=keep_violations)
-        chunks = source.chunks(run.start, run.row_check)
+        chunks = source.chunks(run.start, run.skipped)
         with bar(source.n_instances, progress and _streams(source, chunk_rows), initial=run.start) as progress_bar:
             try:
                 for chunk in chunks:  # Eq. 8, chunk after chunk, in Rust with the GIL released

@@ -17,7 +17,8 @@ import numpy as np
 
 from .. import _core
 from ..stream.checkpoint import every_seconds, fingerprint
-from ..stream.chunks import RowCheck, as_chunk, skip_rows
+from ..stream.chunks import Skipped, as_chunk, skip_rows
+from ..stream.identity import model_fingerprint
 from ..stream.progress import bar
 from ._validate import finite_vector, flag, positive_int, real_array
 from .durable import open_run
@@ -27,19 +28,23 @@ from .thresholds import Thresholds
 
 
 def parameter_batches(parameters, batch_size: int, start: int = 0,
-                      check: RowCheck | None = None) -> tuple[Iterator[np.ndarray], int | None]:
+                      skipped: Skipped | None = None) -> tuple[Iterator[np.ndarray], int | None]:
     """Batches of parameter sets (float64 rows) from row ``start`` on, and the
-    total count when known. When resuming, ``check`` sees rows 0 and start-1."""
+    total count when known. When resuming, ``skipped`` sees every row before
+    ``start``, in blocks (for an array, when the batches are drawn)."""
     if is_parameter_array(parameters):
         arr = real_array(parameters, "parameters", copy=False)  # a memmap stays on disk
         if arr.ndim == 1:
             arr = arr[:, None]
         if arr.ndim != 2:
             raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
-        if check is not None and start > 0:
-            check(0, arr[0])
-            check(start - 1, arr[start - 1])
-        return (arr[i:i + batch_size] for i in range(start, arr.shape[0], batch_size)), arr.shape[0]
+        def sliced() -> Iterator[np.ndarray]:
+            if skipped is not None:
+                for i in range(0, min(start, arr.shape[0]), batch_size):
+                    skipped(i, arr[i:min(i + batch_size, start)])
+            for i in range(start, arr.shape[0], batch_size):
+                yield arr[i:i + batch_size]
+        return sliced(), arr.shape[0]
     if isinstance(parameters, (str, bytes)) or not isinstance(parameters, Iterable):
         raise TypeError(
             f"parameters: expected an (N, p) array or an iterable of (n, p) batches, got {type(parameters).__name__}"
@@ -59,7 +64,7 @@ def parameter_batches(parameters, batch_size: int, start: int = 0,
                 )
             width = arr.shape[1]
             yield arr
-    return skip_rows(checked(), start, check, "parameters"), None
+    return skip_rows(checked(), start, skipped, "parameters"), None
 
 
 def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, nan: str,
@@ -121,7 +126,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
                   nan: str = "raise", progress: bool = True,
                   on_batch: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
                   checkpoint: str | os.PathLike | None = None,
-                  checkpoint_every: float = 60.0,
+                  checkpoint_every: float = 60.0, trust_iterable: bool = False,
                   sensors: Sequence[str] | None = None) -> FalsificationResult:
     """Evaluate ``model`` on every parameter set and falsify as it goes (Eq. 8).
 
@@ -162,10 +167,16 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         the end). Calling again with the same folder and inputs resumes after
         the last saved batch without evaluating the model on the parameter
         sets already done (an iterable is still drawn from, to skip them; an
-        array is sliced); other inputs are refused, and so is a second run on
-        the folder while this one holds it.
+        array is sliced; every parameter set already done is checked against
+        the digests saved); other inputs (including another model, see
+        :func:`edmf_rs.stream.identity.model_fingerprint`) are refused, and
+        so is a second run on the folder while this one holds it.
     checkpoint_every : float, default 60.0
         Seconds between saves of the checkpoint.
+    trust_iterable : bool, default False
+        When the folder holds a finished run and ``parameters`` is a one-pass
+        iterator, return the saved result without drawing it again to check
+        it (else ValueError). Arrays and lists of batches are always checked.
     sensors : sequence of str, optional
         The names of the sensors of ``measurements``, in order. The model may
         then return a ``pandas.DataFrame``, a mapping of sensor name to column
@@ -220,6 +231,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         raise TypeError(f"on_batch: expected a callable or None, got {type(on_batch).__name__}")
     diagnostics, progress = flag(diagnostics, "diagnostics"), flag(progress, "progress")
     keep_violations = flag(keep_violations, "keep_violations")
+    trust_iterable = flag(trust_iterable, "trust_iterable")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
@@ -235,17 +247,16 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     n_total = _known_length(parameters)
     named = {"sensors": list(sensors)} if sensors is not None else {}
     fp = fingerprint("falsify_model", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
-                     nan=nan, model=_model_name(model), n_instances=n_total, **named)
+                     nan=nan, model=model_fingerprint(model), n_instances=n_total, **named)
     fields = ("n_violated",) if keep_violations else ()
-    with open_run(checkpoint, fp, every, fields + ("parameters", "predictions"), input_name="parameters") as run:
-        if run.finished:
-            if n_total is not None:  # an array: the rows done are checked as they are skipped
-                rest = parameter_batches(parameters, batch_size, run.start, run.row_check)[0]
-            else:  # an iterable is not drained again: its first batch is checked
-                rest = parameter_batches(parameters, batch_size)[0]
-            return run.saved_result(rest, y, thresholds, reread=n_total is not None)
+    rereadable = n_total is not None or not isinstance(parameters, Iterator)
+    with open_run(checkpoint, fp, every, fields + ("parameters", "predictions"), input_name="parameters",
+                  rereadable=rereadable) as run:
+        if run.finished:  # the rows done are checked as they are skipped, unless a one-pass iterator is trusted
+            rest = parameter_batches(parameters, batch_size, run.start, run.skipped)[0] if rereadable else None
+            return run.saved_result(rest, y, thresholds, trusted=trust_iterable)
         start = run.start
-        batches, total = parameter_batches(parameters, batch_size, start, run.row_check)
+        batches, total = parameter_batches(parameters, batch_size, start, run.skipped)
         acc = _core.Falsifier(y, thresholds.low, thresholds.high, diagnostics=diagnostics,
                               keep_violations=keep_violations)
         kept: dict[str, list[np.ndarray]] = {"parameters": [], "predictions": []}
@@ -315,10 +326,3 @@ def is_parameter_array(parameters) -> bool:
 
 def _known_length(parameters) -> int | None:
     return int(np.shape(parameters)[0]) if is_parameter_array(parameters) else None
-
-
-def _model_name(model) -> str:
-    """The model's qualified name, so resuming a folder with another model is refused."""
-    target = getattr(model, "func", model)  # functools.partial
-    name = getattr(target, "__qualname__", None) or type(target).__qualname__
-    return f"{getattr(target, '__module__', '') or ''}.{name}"

@@ -1,34 +1,41 @@
 """Resumable runs: a folder holding what a long run has found so far.
 
-The folder holds the candidates as ``.npy`` parts (one set per checkpoint)
-and a small ``state.json``: the position reached, the counts so far and a
-fingerprint of the inputs. Parts are written first and the state replaced
-last, each atomically, so after a crash, SIGKILL, Ctrl-C or full disk the
-folder always describes a consistent prefix of the run, and running the same
-call again continues from its end.
+The folder holds ``state.json`` (the position reached, the counts so far, a
+fingerprint of the inputs, a content digest of every instance done and the
+sha256 of every part, itself checksummed: see :mod:`.state`), the candidates
+as ``.npy`` parts, one set per save (see :mod:`.parts`), and the ``.lock``
+file (see :mod:`.folder_lock`). Parts are written first and the state
+replaced last, each atomically, so after a crash, SIGKILL, Ctrl-C or full
+disk the folder always describes a consistent prefix of the run, and running
+the same call again continues from its end, after re-reading the instances
+done and checking every one of them against their digests.
 """
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
-import json
 import numbers
+import re
 import signal
 import threading
 import time
 from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 
-from . import atomic, chunks
+from .. import _core
+from . import chunks, parts
+from . import state as state_file
 from .folder_lock import FolderLock, folder_path
 
-STATE = "state.json"
-FORMAT = "edmf_rs.checkpoint/1"
+STATE = state_file.STATE
+FORMAT = state_file.FORMAT
 #: Fingerprint entries that are content hashes (not worth printing).
-HASHED = ("measurements", "thresholds")
+HASHED = ("measurements", "thresholds", "model")
+#: Writers (module-level so tests can make them fail like a full disk).
+save_npy = parts.save
+save_state = state_file.write
 
 
 class CheckpointError(OSError):
@@ -68,18 +75,10 @@ def digest(*arrays) -> str:
 
 def fingerprint(call: str, measurements: np.ndarray, thresholds, **options) -> dict:
     """What must not change between a run and its resumption (``thresholds``:
-    anything with ``n_sensors``, ``low`` and ``high``)."""
+    anything with ``n_sensors``, ``low`` and ``high``; ``options``: JSON
+    values, e.g. ``model=`` a :func:`edmf_rs.stream.identity.model_fingerprint`)."""
     return {"call": call, "n_sensors": thresholds.n_sensors, "measurements": digest(measurements),
             "thresholds": digest(thresholds.low, thresholds.high), **options}
-
-
-def save_npy(target: Path, array: np.ndarray) -> None:
-    with atomic.atomic_path(target) as tmp, open(tmp, "wb") as fh:
-        np.lib.format.write_array(fh, np.asarray(array), allow_pickle=False)
-
-
-def save_state(target: Path, text: str) -> None:
-    atomic.write_text(target, text)
 
 
 @contextlib.contextmanager
@@ -102,21 +101,32 @@ def deferred_sigint() -> Iterator[None]:
                 raise KeyboardInterrupt
 
 
+def digestible(rows) -> np.ndarray:
+    """``rows`` as a 2-D float32/float64 array the Rust digest reads in place."""
+    arr = np.asarray(rows)
+    arr = arr[:, None] if arr.ndim == 1 else arr
+    if (arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative or not arr.flags.aligned
+            or any(s < 0 for s in arr.strides)):
+        arr = np.ascontiguousarray(arr, dtype=np.float64 if arr.dtype != np.float32 else np.float32)
+    return arr
+
+
 class Checkpoint:
     """A run's folder: reads the saved state, checks it belongs to this call,
     and appends the progress of the current accumulator.
 
     ``fields`` names the per-candidate or per-instance arrays saved besides
-    the candidate indices (``n_violated``, ``parameters``, ``predictions``).
+    the candidate indices (``n_violated``, ``parameters``, ``predictions``);
+    ``rereadable`` whether the input can be read again (not an iterator).
     """
 
     def __init__(self, folder, fp: dict, every: float, fields: tuple[str, ...] = (),
-                 input_name: str = "predictions"):
+                 input_name: str = "predictions", rereadable: bool = True):
         self.folder = folder_path(folder)
         if self.folder.exists() and not self.folder.is_dir():
             raise ValueError(f"checkpoint: expected a folder, {self.folder} is a file")
         self.every, self.fields, self.input_name = float(every), fields, input_name
-        self.fingerprint = fp
+        self.fingerprint, self.rereadable = fp, rereadable
         self._lock = FolderLock(self.folder)
         try:
             self._read_progress()
@@ -135,16 +145,17 @@ class Checkpoint:
 
     def _read_progress(self) -> None:
         state = self._read_state()
-        if state is not None:
-            self._check(state["fingerprint"])
         state = state or {}
         self.n_done: int = state.get("n_done", 0)
         self.parts: list[dict] = state.get("parts", [])
         self.tally: dict | None = state.get("tally")
-        self.first_row: str | None = state.get("first_row")
-        self.last_row: str | None = state.get("last_row")
         self.complete: bool = state.get("complete", False)
         self.extra: dict = state.get("extra", {})
+        self.was_rereadable: bool = state.get("rereadable", True)
+        rows = state.get("rows", {})
+        self.saved_blocks: list[str] = rows.get("blocks", [])
+        self.saved_partial: str | None = rows.get("partial")
+        self.rows = _core.RowDigest()  # fed every instance from 0: those done again on resumption
         # Instances and tally before this session's accumulator started.
         self.base, self._base_tally = self.n_done, self.tally
         self._seen = 0  # the accumulator's candidates already written
@@ -155,19 +166,28 @@ class Checkpoint:
 
     def _read_state(self) -> dict | None:
         path = self.folder / STATE
-        if not path.exists():
+        state = state_file.read(path)
+        if state is None:
             return None
+        if isinstance(state.get("fingerprint"), dict):  # other inputs: say which before anything else
+            self._check(state["fingerprint"])
+            for key, value in self.fingerprint.items():
+                if isinstance(value, dict) and "unhashable" in value:
+                    raise ValueError(
+                        f"checkpoint: {self.folder} holds a run, but this call's {key} cannot be fingerprinted "
+                        f"({value['unhashable']}), so whether it is the one the run was made with cannot be "
+                        f"checked; give the {key} a __edmf_fingerprint__() method returning what identifies "
+                        "it (JSON data), or pass another folder (or delete this one) to start over"
+                    )
         try:
-            state = json.loads(path.read_text("utf-8"))
-            if state.get("format") != FORMAT:
-                raise ValueError(f"unknown format {state.get('format')!r}")
-            _check_state(state)
-            return state
-        except (ValueError, AttributeError, UnicodeDecodeError) as exc:
-            raise ValueError(
-                f"checkpoint: {path} is not an edmf_rs checkpoint state ({exc}); "
-                "pass another folder, or delete this one to start over"
-            ) from None
+            state_file.check_shape(state, self.fields)
+            if state["rows"]["block_rows"] != _core.RowDigest.block_rows:
+                raise ValueError(f"digests of {state['rows']['block_rows']}-instance blocks, "
+                                 f"this version uses {_core.RowDigest.block_rows}")
+        except ValueError as exc:
+            raise ValueError(f"checkpoint: {path} is not an edmf_rs checkpoint state ({exc}); "
+                             "pass another folder, or delete this one to start over") from None
+        return state
 
     def _check(self, saved: dict) -> None:
         keys = sorted(set(saved) | set(self.fingerprint))
@@ -180,22 +200,49 @@ class Checkpoint:
                 + "; resume it with the same inputs, or pass another folder (or delete this one) to start over"
             )
 
-    def verify_row(self, index: int, row: np.ndarray) -> None:
-        """Refuses to resume when a row already done differs from the saved run's."""
-        expected = {0: self.first_row}
-        if self.last_row is not None:
-            expected[self.n_done - 1] = self.last_row
-        if expected.get(index) is not None and digest(row) != expected[index]:
+    def verify_skipped(self, first: int, rows: np.ndarray) -> None:
+        """Checks rows already done (``first ..``, fed in order from instance
+        0) against the saved digests; refuses the first block that differs."""
+        if first != self.rows.n_rows:
+            raise RuntimeError(f"checkpoint: rows from instance {first} given after {self.rows.n_rows}")
+        n_before = self.rows.n_blocks
+        self.rows.update(digestible(rows))
+        for k, got in enumerate(self.rows.blocks(n_before), start=n_before):
+            if k >= len(self.saved_blocks) or got != self.saved_blocks[k]:
+                self._changed(k)
+        if self.rows.n_rows == self.n_done and self.rows.partial() != self.saved_partial:
+            self._changed(self.n_done // _core.RowDigest.block_rows)
+
+    def _changed(self, block: int):
+        size = _core.RowDigest.block_rows
+        first, last = block * size, min((block + 1) * size, self.n_done) - 1
+        raise ValueError(
+            f"checkpoint: the {self.input_name} differ from the run saved in {self.folder} in instances "
+            f"{first}..{last} (block {block}, the first that differs): the input changed since; pass the "
+            "same input to resume, or another folder (or delete this one) to start over"
+        )
+
+    def check_verified(self) -> None:
+        """Every instance done before this session was re-read and checked."""
+        if self.rows.n_rows < self.n_done:
             raise ValueError(
-                f"checkpoint: instance {index} of the {self.input_name} differs from the run saved in "
-                f"{self.folder}: the input changed since; pass the same input to resume, or another "
-                "folder (or delete this one) to start over"
+                f"checkpoint: the {self.input_name} ended after {self.rows.n_rows} instances, but the run "
+                f"saved in {self.folder} had already done {self.n_done}: it is not the input the run began "
+                "with; pass the same input, or another folder to start over"
             )
+
+    def record(self, first: int, rows: np.ndarray) -> None:
+        """Instances ``first ..`` (``rows``) were done in this session."""
+        if first != self.rows.n_rows:
+            self.check_verified()
+            raise RuntimeError(f"checkpoint: rows from instance {first} given after {self.rows.n_rows}")
+        self.rows.update(digestible(rows))
 
     def confirm_finished(self, remaining) -> None:
         """Before a finished run's saved result is returned: ``remaining`` is the
-        input from instance ``n_done`` on (its skipped rows pass `verify_row`);
-        any row left means the input is not the one the run finished."""
+        input from instance ``n_done`` on (its skipped rows pass
+        `verify_skipped`); any row left means the input is not the one the run
+        finished."""
         try:
             for block in remaining:
                 if len(block):
@@ -205,46 +252,43 @@ class Checkpoint:
                     )
         finally:
             chunks.close(remaining)
+        self.check_verified()
 
-    def confirm_first_row(self, blocks) -> None:
-        """For an input that is not drained again (an iterable): its first
-        instance, from the first non-empty block drawn, must be the saved run's."""
-        try:
-            for block in blocks:
-                if len(block):
-                    if self.n_done == 0:
-                        raise ValueError(
-                            f"checkpoint: {self.folder} holds a finished run over 0 instances, but the "
-                            f"{self.input_name} have some; pass the same input, or another folder to start over"
-                        )
-                    self.verify_row(0, block[0])
-                    return
-            if self.n_done:
-                raise ValueError(
-                    f"checkpoint: {self.folder} holds a finished run over {self.n_done} instances, but the "
-                    f"{self.input_name} are empty; pass the same input, or another folder to start over"
-                )
-        finally:
-            chunks.close(blocks)
+    def refuse_unchecked(self) -> None:
+        """A finished run cannot be checked against a one-pass iterable without drawing it all again."""
+        raise ValueError(
+            f"checkpoint: {self.folder} holds a finished run, and the {self.input_name} are a one-pass "
+            "iterator (e.g. a generator) that would have to be drawn again in full to check it is the "
+            "input the run was made from. Pass trust_iterable=True to get the saved result without that "
+            "check, or pass the input as an array, a .npy file or a list of chunks to have every instance "
+            "checked"
+        )
 
-    def part_path(self, k: int, name: str) -> Path:
-        return self.folder / f"part-{k:06d}.{name}.npy"
+    def part_path(self, k: int, name: str):
+        return self.folder / parts.name(k, name)
 
     def saved(self, n_sensors: int) -> dict[str, object]:
-        """The finished run read back from the parts, as the keyword arguments
-        of a ``FalsificationResult`` (without thresholds and measurements)."""
+        """The finished run read back from the parts (each checked against
+        its checksum, dtype, shape and range), as the keyword arguments of a
+        ``FalsificationResult`` (without thresholds and measurements)."""
         names = ("candidates",) + self.fields
         pieces: dict[str, list[np.ndarray]] = {name: [] for name in names}
+        first = 0
+        widths = {"parameters": self.extra.get("n_parameters"), "predictions": n_sensors}
         for k, part in enumerate(self.parts):
+            loaded = {}
             for name in names:
-                arr = self._load(k, name)
-                expected = part["n_instances"] if name == "n_violated" else part["n_candidates"]
-                if arr.shape[0] != expected:
-                    raise ValueError(f"checkpoint: {self.part_path(k, name)} is damaged "
-                                     f"({arr.shape[0]} rows, expected {expected}); delete the folder to start over")
-                pieces[name].append(arr)
-        if sum(p["n_instances"] for p in self.parts) != self.n_done:
-            raise ValueError(f"checkpoint: {self.folder / STATE} is inconsistent; delete the folder to start over")
+                rows = part["n_instances"] if name == "n_violated" else part["n_candidates"]
+                loaded[name] = parts.load(self.part_path(k, name), part["sha256"][name], name, rows,
+                                          widths.get(name))
+            parts.check_candidates(self.part_path(k, "candidates"), loaded["candidates"], first,
+                                   part["n_instances"])
+            if "n_violated" in loaded:
+                parts.check_violations(self.part_path(k, "n_violated"), loaded["n_violated"], n_sensors,
+                                       loaded["candidates"], first)
+            for name in names:
+                pieces[name].append(loaded[name])
+            first += part["n_instances"]
         empty = {"candidates": np.empty(0, np.int64), "n_violated": np.empty(0, np.int32),
                  "parameters": np.empty((0, self.extra.get("n_parameters", 0))),
                  "predictions": np.empty((0, n_sensors))}
@@ -261,24 +305,15 @@ class Checkpoint:
             "candidate_predictions": arrays.get("predictions"),
         }
 
-    def _load(self, k: int, name: str) -> np.ndarray:
-        path = self.part_path(k, name)
-        try:
-            return np.load(path, allow_pickle=False)
-        except (OSError, ValueError, EOFError) as exc:
-            raise ValueError(f"checkpoint: cannot read {path} ({exc}); delete the folder to start over") from None
-
     # -- writing -----------------------------------------------------------
 
     def due(self) -> bool:
         return time.monotonic() - self._last >= self.every
 
-    def flush(self, acc, tail: tuple[int, np.ndarray] | None = None,
-              arrays: dict[str, list[np.ndarray]] | None = None, final: bool = False) -> None:
+    def flush(self, acc, arrays: dict[str, list[np.ndarray]] | None = None, final: bool = False) -> None:
         """Saves what ``acc`` (a ``_core.Falsifier`` started at instance
-        ``base``) found since the last flush. ``tail`` is (index, row) of the
-        last instance falsified; ``arrays`` the lists of candidate rows since
-        the last flush (emptied here once written)."""
+        ``base``) found since the last flush; ``arrays`` the lists of
+        candidate rows since the last flush (emptied here once written)."""
         if self.broken:
             raise RuntimeError("checkpoint: an earlier write failed; the run cannot go on")
         n_done = self.base + int(acc.n_instances)
@@ -286,21 +321,23 @@ class Checkpoint:
             return
         with deferred_sigint():
             try:
-                self._write(acc, n_done, tail, arrays or {}, final)
+                self._write(acc, n_done, arrays or {}, final)
             except BaseException:
                 self.broken = True
                 raise
 
-    def _write(self, acc, n_done: int, tail, arrays: dict, final: bool) -> None:
+    def _write(self, acc, n_done: int, arrays: dict, final: bool) -> None:
+        self.check_verified()
+        if self.rows.n_rows != n_done:
+            raise RuntimeError(f"checkpoint: {n_done} instances done but {self.rows.n_rows} recorded")
         files: dict[str, np.ndarray] = {}
-        parts = list(self.parts)
+        new_parts = list(self.parts)
         if n_done > self.n_done:
             files["candidates"] = acc.candidates(self._seen).astype(np.int64) + self.base
             if "n_violated" in self.fields:
                 files["n_violated"] = acc.take_violations().view(np.int32)
             for name, rows in arrays.items():
                 files[name] = np.concatenate(rows)
-            parts.append({"n_instances": n_done - self.n_done, "n_candidates": len(files["candidates"])})
         tally = acc.tally()
         if tally is not None:
             base = self._base_tally or {"per_sensor_falsified": 0, "falsified_only_by": 0, "n_invalid": 0}
@@ -311,18 +348,24 @@ class Checkpoint:
                                       + tally[1].astype(np.int64)).tolist(),
                 "n_invalid": int(base["n_invalid"]) + int(tally[2]),
             }
-        last_row = digest(tail[1]) if tail is not None and tail[0] == n_done - 1 else None
-        state = {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
-                 "first_row": self.first_row, "last_row": last_row, "tally": tally, "extra": self.extra,
-                 "parts": parts}
-        target, written = None, []
+        target, written, sums = None, [], {}
         try:
             for name, arr in files.items():
                 target = self.part_path(len(self.parts), name)
-                save_npy(target, arr)
+                sums[name] = save_npy(target, arr)
                 written.append(target)
+            if files:
+                new_parts.append({"n_instances": n_done - self.n_done, "n_candidates": len(files["candidates"]),
+                                  "sha256": sums})
+            state = {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
+                     "rereadable": self.rereadable and self.was_rereadable,
+                     "rows": {"block_rows": _core.RowDigest.block_rows, "blocks": self.rows.blocks(),
+                              "partial": self.rows.partial()},
+                     "tally": tally, "extra": self.extra, "parts": new_parts,
+                     # The next save's part files: all a crash can leave that the parts do not list.
+                     "pending": [parts.name(len(new_parts), name) for name in ("candidates",) + self.fields]}
             target = self.folder / STATE
-            save_state(target, json.dumps(state, indent=1))
+            save_state(target, state)
         except OSError as exc:
             for path in written:  # not listed in the state: only holding space the retry needs
                 with contextlib.suppress(OSError):
@@ -336,43 +379,27 @@ class Checkpoint:
         for rows in arrays.values():
             rows.clear()
         self._seen += len(files.get("candidates", ()))
-        self.n_done, self.parts, self.tally, self.last_row, self.complete = n_done, parts, tally, last_row, final
+        self.n_done, self.parts, self.tally, self.complete = n_done, new_parts, tally, final
+        self.was_rereadable = state["rereadable"]
+        self._pending = state["pending"]
         self._last = time.monotonic()
         if final:
             self._tidy()
 
     def _tidy(self) -> None:
-        """Removes the parts and temporary files interrupted sessions left;
-        only names this class writes, so other files in the folder are kept."""
-        for name in ("candidates",) + self.fields:
-            for path in self.folder.glob(f"part-??????.{name}.npy"):
-                if path.name[5:11].isdigit() and int(path.name[5:11]) >= len(self.parts):
-                    path.unlink(missing_ok=True)
-        # atomic.atomic_path's temporary names: ".<target>.<pid>.<uuid>.tmp"
-        for pattern in (".part-??????.*.npy.*.tmp", f".{STATE}.*.tmp"):
-            for path in self.folder.glob(pattern):
+        """Removes what interrupted sessions may have left, and only what the
+        state lists: the pending part files of a save that never completed,
+        and the temporary files of the state's and the parts' atomic writes
+        (``.<name>.<pid>.<32 hex>.tmp``, see :mod:`.atomic`)."""
+        listed = {STATE} | {parts.name(k, name) for k in range(len(self.parts) + 1)
+                            for name in ("candidates",) + self.fields}
+        for name in self._pending:
+            (self.folder / name).unlink(missing_ok=True)
+        temporary = re.compile(r"\.(?P<name>.+)\.[0-9]+\.[0-9a-f]{32}\.tmp")
+        for path in self.folder.iterdir():
+            m = temporary.fullmatch(path.name)
+            if m and m["name"] in listed and not path.is_symlink() and path.is_file():
                 path.unlink(missing_ok=True)
-
-
-def _check_state(state: dict) -> None:
-    """Raises ValueError unless ``state`` has the shape ``_write`` gives it."""
-    def count(v) -> bool:
-        return isinstance(v, int) and not isinstance(v, bool) and v >= 0
-
-    ok = (isinstance(state.get("fingerprint"), dict) and count(state.get("n_done"))
-          and isinstance(state.get("complete"), bool) and isinstance(state.get("extra", {}), dict)
-          and all(isinstance(state.get(k), (str, type(None))) for k in ("first_row", "last_row"))
-          and isinstance(state.get("parts"), list)
-          and all(isinstance(p, dict) and count(p.get("n_instances")) and count(p.get("n_candidates"))
-                  for p in state["parts"]))
-    tally = state.get("tally")
-    if ok and tally is not None:
-        n_sensors = state["fingerprint"].get("n_sensors")
-        ok = (isinstance(tally, dict) and count(tally.get("n_invalid"))
-              and all(isinstance(tally.get(k), list) and len(tally[k]) == n_sensors and all(map(count, tally[k]))
-                      for k in ("per_sensor_falsified", "falsified_only_by")))
-    if not ok:
-        raise ValueError("damaged: a field is missing or has the wrong type or length")
 
 
 def every_seconds(value) -> float:
@@ -381,13 +408,17 @@ def every_seconds(value) -> float:
     return float(value)
 
 
-def save_on_error(ckpt: Checkpoint | None, acc, tail, exc: BaseException, arrays=None) -> None:
+def save_on_error(ckpt: Checkpoint | None, acc, exc: BaseException, arrays=None) -> None:
     """Keeps the work done before an error or Ctrl-C (the chunk that failed
-    left no trace in ``acc``), unless the checkpoint itself failed."""
+    left no trace in ``acc``), unless the checkpoint itself failed or the
+    interruption fell between a chunk's falsification and its digest (then
+    the work since the last save is redone on resumption)."""
     if ckpt is None or ckpt.broken or isinstance(exc, CheckpointError):
         return
+    if ckpt.rows.n_rows != ckpt.base + int(acc.n_instances):
+        return
     try:
-        ckpt.flush(acc, tail, arrays)
+        ckpt.flush(acc, arrays)
     except BaseException as again:  # the original error matters more
         exc.add_note(f"edmf_rs: the last checkpoint could not be saved either: {again}")
 

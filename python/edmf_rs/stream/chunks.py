@@ -12,8 +12,9 @@ import numpy as np
 
 from . import npy
 
-#: Called with (instance index, row) for skipped rows a resumed run checks.
-RowCheck = Callable[[int, np.ndarray], None]
+#: Called with (first instance, rows) for every block of rows a resumed run
+#: skips, in instance order from instance 0, so it can check all of them.
+Skipped = Callable[[int, np.ndarray], None]
 
 
 def checked_array(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
@@ -54,11 +55,13 @@ class Source(abc.ABC):
     """Where predictions come from; ``n_instances`` is None when unknown."""
 
     n_instances: int | None = None
+    #: False for an iterator (a generator, a file object...): it cannot be read twice.
+    rereadable: bool = True
 
     @abc.abstractmethod
-    def chunks(self, start: int = 0, check: RowCheck | None = None) -> Iterator[np.ndarray]:
+    def chunks(self, start: int = 0, skipped: Skipped | None = None) -> Iterator[np.ndarray]:
         """Checked chunks in instance order from instance ``start`` on. When
-        resuming, ``check`` is given rows 0 and ``start - 1``."""
+        resuming, ``skipped`` is given every row before ``start``, in blocks."""
 
 
 class ArraySource(Source):
@@ -76,11 +79,12 @@ class ArraySource(Source):
             chunk_rows = max(1024, npy.CHUNK_BYTES // max(1, n_sensors * arr.dtype.itemsize))
         self.chunk_rows = chunk_rows
 
-    def chunks(self, start=0, check=None):
+    def chunks(self, start=0, skipped=None):
         arr = self.arr
-        if check is not None and start > 0:
-            check(0, arr[0])
-            check(start - 1, arr[start - 1])
+        if skipped is not None:
+            block = self.chunk_rows or max(1024, npy.CHUNK_BYTES // max(1, 8 * self.n_sensors))
+            for first in range(0, min(start, arr.shape[0]), block):
+                skipped(first, as_chunk(arr[first:min(first + block, start)], self.n_sensors))
         step = self.chunk_rows or max(arr.shape[0] - start, 1)
         if start == 0 and arr.shape[0] == 0:
             yield as_chunk(arr, self.n_sensors)  # an empty run still meets the core once (it checks the width)
@@ -99,20 +103,22 @@ class FileSource(Source):
             self.n_instances = f.n_rows
         self.path, self.chunk_rows = path, chunk_rows
 
-    def chunks(self, start=0, check=None):
-        if check is not None and start > 0:
-            with npy.NpyFile(self.path) as f:
-                check(0, f.rows(0, 1)[0])
-                check(start - 1, f.rows(start - 1, 1)[0])
+    def chunks(self, start=0, skipped=None):
+        if skipped is not None and start > 0:
+            first = 0
+            for block in npy.read_chunks(self.path, self.chunk_rows, stop=start):
+                skipped(first, block)
+                first += block.shape[0]
         yield from npy.read_chunks(self.path, self.chunk_rows, start=start)
 
 
 class IterableSource(Source):
     def __init__(self, chunks: Iterable, n_sensors: int):
         self.iterable, self.n_sensors = chunks, n_sensors
+        self.rereadable = not isinstance(chunks, Iterator)
 
-    def chunks(self, start=0, check=None):
-        return skip_rows(self._checked(), start, check, "predictions")
+    def chunks(self, start=0, skipped=None):
+        return skip_rows(self._checked(), start, skipped, "predictions")
 
     def _checked(self) -> Iterator[np.ndarray]:
         width = None
@@ -151,12 +157,12 @@ def iter_chunks(predictions, n_sensors: int, chunk_rows: int | None = None) -> I
     return open_source(predictions, n_sensors, chunk_rows).chunks()
 
 
-def skip_rows(blocks: Iterator[np.ndarray], start: int, check: RowCheck | None,
+def skip_rows(blocks: Iterator[np.ndarray], start: int, skipped: Skipped | None,
               name: str) -> Iterator[np.ndarray]:
     """The rows of ``blocks`` (2-D arrays in order) from row ``start`` on.
 
-    Skipped blocks are consumed but not used; ``check`` sees rows 0 and
-    ``start - 1`` so a resumed run can tell the input is the one it began with.
+    Skipped rows are consumed but not used, except that ``skipped`` sees all
+    of them, so a resumed run can tell the input is the one it began with.
     """
     seen = 0
     for block in blocks:
@@ -164,13 +170,12 @@ def skip_rows(blocks: Iterator[np.ndarray], start: int, check: RowCheck | None,
             yield block
             continue
         n = block.shape[0]
-        if check is not None and start > 0:
-            for i in {0, start - 1}:
-                if seen <= i < seen + n:
-                    check(i, block[i - seen])
+        take = min(n, start - seen)
+        if skipped is not None and take:
+            skipped(seen, block[:take])
         seen += n
         if seen > start:
-            yield block[block.shape[0] - (seen - start):]
+            yield block[take:]
     if seen < start:
         raise ValueError(
             f"{name}: the input ended after {seen} instances, but the run being resumed had already "

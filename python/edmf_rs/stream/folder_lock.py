@@ -3,7 +3,9 @@ while a run uses the folder (the OS drops it if the run dies)."""
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import tempfile
 import warnings
 from pathlib import Path
@@ -14,6 +16,12 @@ except ImportError:  # not POSIX: folders are not locked
     fcntl = None
 
 LOCK = ".lock"
+
+
+def _no_follow(path, flags: int) -> int:
+    """Opens without following a final symbolic link (ELOOP instead), and
+    without blocking on a FIFO put in the lock file's place."""
+    return os.open(path, flags | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0), 0o666)
 
 
 def folder_path(value) -> Path:
@@ -54,10 +62,16 @@ class FolderLock:
         fh = None
         for mode in ("a", "r"):  # flock works on a file opened read-only too
             try:
-                fh = open(folder / LOCK, mode)
+                fh = open(folder / LOCK, mode, opener=_no_follow)
                 break
-            except OSError:
+            except OSError as exc:
+                if exc.errno == errno.ELOOP:  # a symbolic link: where it points is not ours to touch
+                    raise ValueError(f"checkpoint: {folder / LOCK} is a symbolic link, which a run does not "
+                                     "follow; remove it (or give another folder)") from None
                 continue
+        if fh is not None and not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+            fh.close()
+            raise ValueError(f"checkpoint: {folder / LOCK} is not a regular file; remove it (or give another folder)")
         if fh is None or fcntl is None:
             if fh is not None:
                 fh.close()

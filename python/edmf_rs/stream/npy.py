@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import queue
+import stat
 import threading
 from collections.abc import Iterator
 
@@ -31,6 +32,26 @@ SPLIT_BYTES = 2**20
 _PREADV = hasattr(os, "preadv")
 
 
+def open_regular(path, name: str):
+    """``path`` opened for unbuffered binary reading, refused (ValueError
+    naming ``name``) unless it is a regular file: a FIFO would block the run
+    until some writer appears, a device never ends."""
+    try:  # O_NONBLOCK: opening a FIFO returns at once instead of waiting for a writer
+        fd = os.open(os.fspath(path), os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise ValueError(f"{name}: cannot open {path!s}: {exc.strerror}") from None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"{name}: {path!s} is not a regular file (a FIFO, device or socket "
+                             "cannot be read in place); give a .npy file")
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        return open(fd, "rb", buffering=0)
+    except BaseException:
+        os.close(fd)
+        raise
+
+
 class NpyFile:
     """An open, checked 2-D numeric ``.npy`` file: ``shape``, ``dtype``, ``fortran``."""
 
@@ -38,10 +59,7 @@ class NpyFile:
         self.path, self.name = path, name
         self.helper: _Helper | None = None  # reads half of each large read
         self.busy = False  # reader threads may still be using the file
-        try:
-            self.fp = open(os.fspath(path), "rb", buffering=0)
-        except OSError as exc:
-            raise ValueError(f"{name}: cannot open {path!s}: {exc.strerror}") from None
+        self.fp = open_regular(path, name)
         try:
             self.shape, self.fortran, self.dtype = self._header()
             if self.dtype.kind not in "iufb" or self.dtype.hasobject or self.dtype.fields:
@@ -212,23 +230,23 @@ _END = object()
 
 
 def read_chunks(path, chunk_rows: int | None = None, name: str = "predictions",
-                start: int = 0) -> Iterator[np.ndarray]:
-    """Yields consecutive row blocks of a .npy file from row ``start``, as
-    native float32/float64 arrays (integers become float64).
+                start: int = 0, stop: int | None = None) -> Iterator[np.ndarray]:
+    """Yields consecutive row blocks of a .npy file from row ``start`` to
+    ``stop`` (default: the end), as native float32/float64 arrays (integers
+    become float64).
 
     Each yielded array is a reused buffer, valid until the next one is asked
     for; meanwhile a reader thread fills the other buffer.
     """
     f = NpyFile(path, name)
     try:
-        yield from _prefetched(f, chunk_rows, start)
+        yield from _prefetched(f, chunk_rows, start, f.n_rows if stop is None else min(stop, f.n_rows))
     finally:
         if not f.busy:  # else the reader threads still read it; they are daemons
             f.close()
 
 
-def _prefetched(f: NpyFile, chunk_rows: int | None, start: int) -> Iterator[np.ndarray]:
-    n = f.n_rows
+def _prefetched(f: NpyFile, chunk_rows: int | None, start: int, n: int) -> Iterator[np.ndarray]:
     # Integer files are converted to float64: size the chunk by the larger copy.
     item = f.dtype.itemsize if f.dtype.kind == "f" and f.dtype.itemsize in (4, 8) else 8
     rows = chunk_rows or max(1024, CHUNK_BYTES // max(1, f.n_cols * item))

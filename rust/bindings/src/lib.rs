@@ -5,6 +5,7 @@
 //! `ValueError`. Argument checking that needs Python types lives in the Python
 //! package; the core re-checks everything it relies on.
 
+mod digest;
 mod pool;
 mod screening;
 mod views;
@@ -186,5 +187,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pool::get_num_threads, m)?)?;
     m.add_class::<Falsifier>()?;
     m.add_function(wrap_pyfunction!(screening::screen_emulator, m)?)?;
+    m.add_class::<digest::RowDigest>()?;
     Ok(())
 }

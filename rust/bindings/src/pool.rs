@@ -4,6 +4,7 @@
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyInt;
 use rayon::{ThreadPool, ThreadPoolBuilder};
 use std::sync::{Arc, Mutex};
 
@@ -35,9 +36,10 @@ fn build(threads: usize) -> PyResult<Arc<ThreadPool>> {
 fn default_threads() -> PyResult<usize> {
     match std::env::var(ENV) {
         Ok(v) => match v.trim().parse::<usize>() {
-            Ok(n) if n > 0 => Ok(n),
+            Ok(n) if n > 0 && n <= max_threads() => Ok(n),
             _ => Err(PyValueError::new_err(format!(
-                "{ENV}: expected a positive integer, got {v:?}"
+                "{ENV}: expected an integer from 1 to {}, got {v:?}",
+                max_threads()
             ))),
         },
         Err(_) => Ok(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
@@ -53,6 +55,13 @@ pub fn current() -> PyResult<Arc<ThreadPool>> {
     let pool = build(default_threads()?)?;
     *guard = Some((std::process::id(), Arc::clone(&pool)));
     Ok(pool)
+}
+
+/// Most threads a pool may have: far beyond any use (64 per core, at least
+/// 1024), short of what would exhaust the process (2**40 never returned).
+fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    cores.saturating_mul(64).max(1024)
 }
 
 /// Sets how many threads edmf_rs uses from now on.
@@ -87,10 +96,16 @@ pub fn current() -> PyResult<Arc<ThreadPool>> {
 /// 1
 /// >>> edmf_rs.set_num_threads(before)
 #[pyfunction]
-pub fn set_num_threads(n: i64) -> PyResult<()> {
-    if n < 1 {
+pub fn set_num_threads(n: &Bound<'_, PyAny>) -> PyResult<()> {
+    let max = max_threads();
+    let n: i64 = match n.extract::<i64>() {
+        Ok(v) => v,
+        Err(_) if n.is_instance_of::<PyInt>() => i64::MAX, // beyond i64: refused below as too many
+        Err(e) => return Err(e),
+    };
+    if n < 1 || n as u64 > max as u64 {
         return Err(PyValueError::new_err(format!(
-            "n: expected a positive number of threads, got {n}"
+            "n: expected a number of threads from 1 to {max}, got {n}"
         )));
     }
     let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());

@@ -1,0 +1,80 @@
+"""A checkpoint's part files: one ``.npy`` per field per save, written with
+its sha256 (kept in the state) and read back only when the bytes match and
+the array has the dtype, shape and range a run writes."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+
+from . import atomic
+
+#: What each field holds: allowed dtypes, and whether rows are instances
+#: (``n_violated``) or candidates (the others).
+DTYPES = {
+    "candidates": (np.dtype(np.int64),),
+    "n_violated": (np.dtype(np.int32),),
+    "parameters": (np.dtype(np.float64),),
+    "predictions": (np.dtype(np.float64), np.dtype(np.float32)),
+}
+
+
+def name(k: int, field: str) -> str:
+    return f"part-{k:06d}.{field}.npy"
+
+
+def save(target: Path, array: np.ndarray) -> str:
+    """Writes ``array`` atomically; returns the sha256 of the bytes written."""
+    buf = io.BytesIO()
+    np.lib.format.write_array(buf, np.asarray(array), allow_pickle=False)
+    data = buf.getvalue()
+    atomic.write_bytes(target, data)
+    return hashlib.sha256(data).hexdigest()
+
+
+def load(path: Path, sha256: str, field: str, rows: int, width: int | None = None) -> np.ndarray:
+    """The array in ``path``, refused (ValueError naming it) unless its bytes
+    have the recorded sha256 and it is ``rows`` long of the field's dtype
+    (``width`` columns for 2-D fields)."""
+    def damaged(why: str) -> ValueError:
+        return ValueError(f"checkpoint: {path} {why}; the folder was changed since the run wrote it: "
+                          "delete the folder to start over")
+
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise damaged("is not a regular file")
+        with open(path, "rb") as fh:
+            data = fh.read()
+    except OSError as exc:
+        raise damaged(f"cannot be read ({exc.strerror or exc})") from None
+    if hashlib.sha256(data).hexdigest() != sha256:
+        raise damaged("does not have the checksum recorded in the state (damaged, or from another run)")
+    try:
+        arr = np.load(io.BytesIO(data), allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
+        raise damaged(f"is not a readable .npy file ({exc})") from None
+    ndim = 1 if field in ("candidates", "n_violated") else 2
+    if arr.dtype not in DTYPES[field] or arr.ndim != ndim:
+        raise damaged(f"holds a {arr.ndim}-D {arr.dtype} array, expected {ndim}-D {DTYPES[field][0]}")
+    if arr.shape[0] != rows or (ndim == 2 and width is not None and arr.shape[1] != width):
+        raise damaged(f"has shape {arr.shape}, expected {rows} rows" + (f" x {width}" if ndim == 2 else ""))
+    return arr
+
+
+def check_candidates(path: Path, idx: np.ndarray, first: int, n_instances: int) -> None:
+    """Candidate indices of a part must be increasing instances of that part."""
+    if idx.size and (idx[0] < first or idx[-1] >= first + n_instances or np.any(np.diff(idx) <= 0)):
+        raise ValueError(f"checkpoint: {path} holds candidate indices outside instances "
+                         f"{first}..{first + n_instances - 1} or not increasing; delete the folder to start over")
+
+
+def check_violations(path: Path, counts: np.ndarray, n_sensors: int, idx: np.ndarray, first: int) -> None:
+    """Violated-sensor counts lie in 0..n_sensors and are 0 at every candidate."""
+    if counts.size and (counts.min() < 0 or counts.max() > n_sensors) or np.any(counts[idx - first] != 0):
+        raise ValueError(f"checkpoint: {path} holds counts of violated sensors out of range 0..{n_sensors} "
+                         "or inconsistent with the candidates; delete the folder to start over")

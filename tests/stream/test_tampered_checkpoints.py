@@ -1,0 +1,154 @@
+"""A checkpoint folder changed since its run wrote it is refused, with a
+message naming the file: part files carry sha256 checksums in the state and
+are dtype-, shape- and range-checked; the state carries a checksum of its own
+and its counts are range-checked; damage never surfaces as a raw exception."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import shutil
+
+import edmf_rs
+import numpy as np
+import pytest
+from edmf_rs import Thresholds
+from edmf_rs.stream import state as state_file
+
+N_M = 4
+
+
+def _case(n=3000, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.normal(0.0, 0.8, (n, N_M)), np.zeros(N_M), Thresholds(np.full(N_M, -1.5), np.full(N_M, 1.5))
+
+
+def _finished(folder, seed=0, **kwargs):
+    predictions, y, t = _case(seed=seed)
+    result = edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, checkpoint_every=0,
+                             progress=False, **kwargs)
+    return predictions, y, t, result
+
+
+def _load(folder):
+    return json.loads((folder / "state.json").read_text())
+
+
+def _forge_part(folder, k, field, array):
+    """Replaces a part and re-signs it in the state, as a careful forger would."""
+    buf = io.BytesIO()
+    np.save(buf, array, allow_pickle=False)
+    (folder / f"part-{k:06d}.{field}.npy").write_bytes(buf.getvalue())
+    state = _load(folder)
+    state["parts"][k]["sha256"][field] = hashlib.sha256(buf.getvalue()).hexdigest()
+    state_file.write(folder / "state.json", state)
+
+
+def test_a_flipped_bit_in_a_part_is_refused(tmp_path):
+    folder = tmp_path / "run"
+    predictions, y, t, _ = _finished(folder)
+    path = folder / "part-000001.candidates.npy"
+    data = bytearray(path.read_bytes())
+    data[-3] ^= 0x10
+    path.write_bytes(bytes(data))
+    with pytest.raises(ValueError, match="part-000001.candidates.npy does not have the checksum"):
+        edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
+
+
+def test_parts_copied_from_another_run_are_refused(tmp_path):
+    predictions, y, t, _ = _finished(tmp_path / "a")
+    _finished(tmp_path / "b", seed=1)
+    for name in ("part-000000.candidates.npy", "part-000000.n_violated.npy"):
+        shutil.copy(tmp_path / "b" / name, tmp_path / "a" / name)
+    with pytest.raises(ValueError, match="part-000000.candidates.npy does not have the checksum"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=tmp_path / "a", progress=False)
+
+
+@pytest.mark.parametrize("array, match", [
+    (np.array([-5, 3, 7], np.int64), "outside instances 1000..1999"),
+    (np.array([1001.0, 1002.0]), "float64 array, expected 1-D int64"),
+    (np.array([1005, 1003], np.int64), "not increasing"),
+    (np.array([[1001]], np.int64), "2-D int64 array"),
+])
+def test_forged_candidate_indices_are_refused(tmp_path, array, match):
+    folder = tmp_path / "run"
+    predictions, y, t, _ = _finished(folder, keep_violations=False)
+    state = _load(folder)
+    state["parts"][1]["n_candidates"] = len(array)
+    state_file.write(folder / "state.json", state)
+    _forge_part(folder, 1, "candidates", array)
+    with pytest.raises(ValueError, match=f"part-000001.candidates.npy .*{match}"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, keep_violations=False, checkpoint=folder,
+                        progress=False)
+
+
+def test_forged_violation_counts_are_refused(tmp_path):
+    folder = tmp_path / "run"
+    predictions, y, t, result = _finished(folder)
+    counts = np.asarray(result.n_violated[:1000]).copy()
+    for bad in (np.where(counts == 0, 0, N_M + 1), np.where(counts == 0, 1, counts)):
+        _forge_part(folder, 0, "n_violated", bad.astype(np.int32))
+        with pytest.raises(ValueError, match="part-000000.n_violated.npy holds counts of violated sensors"):
+            edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    _forge_part(folder, 0, "n_violated", counts.astype(np.int64))
+    with pytest.raises(ValueError, match="part-000000.n_violated.npy holds a 1-D int64 array, expected 1-D int32"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+
+
+def test_hand_edited_tallies_are_refused(tmp_path):
+    folder = tmp_path / "run"
+    predictions, y, t, _ = _finished(folder)
+    state = _load(folder)
+    state["tally"]["per_sensor_falsified"][0] += 1
+    (folder / "state.json").write_text(json.dumps(state))  # checksum left as it was
+    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*checksum"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    state["tally"]["per_sensor_falsified"][0] = state["n_done"] + 1  # re-signed, but impossible
+    state_file.write(folder / "state.json", state)
+    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*range"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+
+
+@pytest.mark.parametrize("text, why", [
+    ("[" * 100_000 + "]" * 100_000, "RecursionError"),
+    ('{"format": "edmf_rs.checkpoint/2", "n_done": 1' + "0" * 400 + "}", ""),
+    ('{"format": "edmf_rs.checkpoint/2", "n_done": 1e400}', ""),
+    ('{"format": "edmf_rs.checkpoint/2", "n_done": NaN}', "NaN"),
+    (b"\xff\xfe{}", ""),
+])
+def test_a_damaged_state_is_a_clean_error_naming_the_file(tmp_path, text, why):
+    predictions, y, t = _case(100)
+    folder = tmp_path / "run"
+    folder.mkdir()
+    path = folder / "state.json"
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    with pytest.raises(ValueError, match=f"{path}.* is not an edmf_rs checkpoint state .*{why}"):
+        edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
+
+
+def test_a_forged_huge_count_is_a_clean_error(tmp_path):
+    # Signed by hand (state_file.write refuses nothing, but NumPy would overflow on reading it).
+    folder = tmp_path / "run"
+    predictions, y, t, _ = _finished(folder)
+    state = _load(folder)
+    state["tally"]["n_invalid"] = 2**70
+    body = {k: v for k, v in state.items() if k != "checksum"}
+    canonical = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
+    state["checksum"] = hashlib.sha256(canonical).hexdigest()
+    (folder / "state.json").write_text(json.dumps(state))
+    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*int64"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+
+
+def test_a_fifo_in_place_of_a_file_is_refused_not_waited_on(tmp_path):
+    predictions, y, t = _case(100)
+    os.mkfifo(tmp_path / "p.npy")
+    with pytest.raises(ValueError, match="p.npy is not a regular file"):
+        edmf_rs.falsify(tmp_path / "p.npy", y, t, progress=False)
+    folder = tmp_path / "run"
+    folder.mkdir()
+    os.mkfifo(folder / "state.json")
+    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*not a regular file"):
+        edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
