@@ -11,6 +11,7 @@
 
 pub mod acceptance;
 pub mod bounds;
+pub mod design;
 pub mod ellipse;
 pub mod error;
 pub mod falsifier;

@@ -5,6 +5,7 @@
 //! `ValueError`. Argument checking that needs Python types lives in the Python
 //! package; the core re-checks everything it relies on.
 
+mod design;
 mod pool;
 mod views;
 
@@ -184,5 +185,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pool::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(pool::get_num_threads, m)?)?;
     m.add_class::<Falsifier>()?;
+    design::register(m)?;
     Ok(())
 }
