@@ -33,6 +33,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default=None,
                      help="output folder (default: next to the project file; ./NAME for --example)")
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+    des = sub.add_parser("design", help="choose sensor locations for a design project (TOML with [design])")
+    des.add_argument("project", help="design project file, e.g. girder-design.toml")
+    des.add_argument("--out", default=None, help="output folder (default: PROJECT-out next to the project file)")
     return parser
 
 
@@ -50,6 +54,10 @@ def main(argv: list[str] | None = None) -> int:
             from .reproduce import reproduce_cli
 
             return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed)
+        if args.command == "design":
+            from .design.cli import design_cli
+
+            return design_cli(args.project, out=args.out)
         from .project import run_cli
 
         if args.example:

@@ -110,11 +110,13 @@ impl Binning {
     /// array; NaN gets the last bin.
     #[inline(always)]
     pub(crate) fn dense_bin(&self, i: usize, v: f64) -> u32 {
-        if v.is_nan() {
-            (self.n_bins[i] - 1.0) as u32
-        } else {
-            ((v - self.min[i]) / self.width[i]).floor() as u32
-        }
+        dense_bin(v, self.min[i], self.width[i], self.nan_label(i))
+    }
+
+    /// The dense label of the NaN bin of location `i` (the last one).
+    #[inline(always)]
+    pub(crate) fn nan_label(&self, i: usize) -> u32 {
+        (self.n_bins[i] - 1.0) as u32
     }
 
     /// Bin as a sort key (exact integer as a float); NaN sorts last, alone.
@@ -128,14 +130,41 @@ impl Binning {
     }
 }
 
-/// Dense bins (0..n_distinct) of location `i` for every instance, written to
-/// `out`. Narrow bins beyond the counting-array cap are relabelled by a sort,
-/// which keeps the same partition (labels only change names).
-pub(crate) fn column_bins<T: Prediction>(g: Matrix<'_, T>, binning: &Binning, i: usize, out: &mut [u32]) {
+/// `floor((v - min) / w)` for a dense location, `nan` for NaN. `v - min >= 0`
+/// exactly (min is the least value), so the truncating cast is the floor.
+#[inline(always)]
+pub(crate) fn dense_bin(v: f64, min: f64, w: f64, nan: u32) -> u32 {
+    if v.is_nan() {
+        nan
+    } else {
+        ((v - min) / w) as u32
+    }
+}
+
+/// Dense bins (0..n_distinct) of location `i`, written to `out` for the
+/// instances `rows` (all when `None`; other entries are left as they are).
+/// Narrow bins beyond the counting-array cap are relabelled by a sort over all
+/// instances, which keeps the same partition (labels only change names).
+pub(crate) fn column_bins<T: Prediction>(
+    g: Matrix<'_, T>,
+    binning: &Binning,
+    i: usize,
+    rows: Option<&[u32]>,
+    out: &mut [u32],
+) {
     let n = g.rows();
     if binning.is_dense(i, n) {
-        for (k, b) in out.iter_mut().enumerate().take(n) {
-            *b = binning.dense_bin(i, g.get(k, i).to_f64());
+        match rows {
+            Some(rows) => {
+                for &k in rows {
+                    out[k as usize] = binning.dense_bin(i, g.get(k as usize, i).to_f64());
+                }
+            }
+            None => {
+                for (k, b) in out.iter_mut().enumerate().take(n) {
+                    *b = binning.dense_bin(i, g.get(k, i).to_f64());
+                }
+            }
         }
     } else {
         let keys: Vec<f64> = (0..n).map(|k| binning.key(i, g.get(k, i).to_f64())).collect();
@@ -164,6 +193,8 @@ pub struct Partition {
     order: Vec<u32>,
     /// Start of each group in `order`, plus the end.
     starts: Vec<u32>,
+    /// The members in instance order (rows read forwards).
+    sorted: Vec<u32>,
     /// `sum_t c_t log2 c_t` over the current tuples.
     sum_clog: f64,
 }
@@ -185,6 +216,7 @@ impl Partition {
         };
         Partition {
             n,
+            sorted: order.clone(),
             order,
             starts,
             sum_clog: clog[n],
@@ -199,6 +231,11 @@ impl Partition {
     /// Instances still sharing their tuple with another one.
     pub fn n_confused(&self) -> usize {
         self.order.len()
+    }
+
+    /// Those instances in increasing order: the only rows whose bins matter.
+    pub fn confused(&self) -> &[u32] {
+        &self.sorted
     }
 
     /// `sum_t c_t log2 c_t` after adding a location whose dense bins are
@@ -265,6 +302,8 @@ impl Partition {
                 offset[id as usize] += 1;
             }
         }
+        self.sorted = order.clone();
+        self.sorted.sort_unstable();
         self.order = order;
         self.starts = starts;
         self.sum_clog = sum;
@@ -300,7 +339,7 @@ pub fn joint_entropy<T: Prediction>(
     let mut bins = vec![0u32; n];
     let mut map: Vec<u32> = Vec::new();
     for &i in sensors {
-        column_bins(g, &binning, i, &mut bins);
+        column_bins(g, &binning, i, Some(part.confused()), &mut bins);
         let need = bins.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
         if map.len() < need {
             map.resize(need, 0);

@@ -16,7 +16,7 @@
 use rayon::prelude::*;
 use rayon::ThreadPool;
 
-use super::entropy::{clog_table, column_bins, dense_cap, entropy_of, Binning, Partition};
+use super::entropy::{clog_table, column_bins, dense_bin, dense_cap, entropy_of, Binning, Partition};
 use crate::error::{EdmfError, Result};
 use crate::kernel::Prediction;
 use crate::matrix::Matrix;
@@ -147,12 +147,24 @@ fn score_block<T: Prediction>(
 ) -> Vec<f64> {
     let n = g.rows();
     let dense: Vec<bool> = block.iter().map(|&i| binning.is_dense(i, n)).collect();
-    // One pass over the rows fills the bins of all dense locations of the block.
-    for k in 0..n {
-        for (c, &i) in block.iter().enumerate() {
-            if dense[c] {
-                s.bins[c * n + k] = binning.dense_bin(i, g.get(k, i).to_f64());
-            }
+    // One pass over the rows that matter (instances still confused with
+    // another, in increasing order) fills the bins of the block's dense
+    // locations; their binning constants are hoisted out of the row loop.
+    let cols: Vec<usize> = block
+        .iter()
+        .copied()
+        .filter(|&i| binning.is_dense(i, n))
+        .collect();
+    let slots: Vec<usize> = (0..block.len()).filter(|&c| dense[c]).collect();
+    let min: Vec<f64> = cols.iter().map(|&i| binning.min[i]).collect();
+    let width: Vec<f64> = cols.iter().map(|&i| binning.width[i]).collect();
+    let nan: Vec<u32> = cols.iter().map(|&i| binning.nan_label(i)).collect();
+    let bins = &mut s.bins[..block.len() * n];
+    for &k in part.confused() {
+        let k = k as usize;
+        for j in 0..cols.len() {
+            let v = g.get(k, cols[j]).to_f64();
+            bins[slots[j] * n + k] = dense_bin(v, min[j], width[j], nan[j]);
         }
     }
     block
@@ -161,14 +173,28 @@ fn score_block<T: Prediction>(
         .map(|(c, &i)| {
             let bins = &mut s.bins[c * n..(c + 1) * n];
             if !dense[c] {
-                column_bins(g, binning, i, bins);
+                column_bins(g, binning, i, None, bins);
             }
             part.score(bins, &mut s.count, clog)
         })
         .collect()
 }
 
+/// Candidates evaluated together once the first step has bounded every gain.
+const LAZY_BATCH: usize = 2 * BLOCK;
+
+/// Rounding allowance on the bounds: a gain computed later may exceed the
+/// same gain computed earlier by a few ulps.
+const SLACK: f64 = 1e-12;
+
 /// Greedy placement over the columns of `g` (instances x candidate locations).
+///
+/// Lazy evaluation (Minoux 1978): by submodularity of the joint entropy, a
+/// location's gain (per unit cost) at an earlier step bounds its gain now, so
+/// candidates are evaluated in order of their bounds until no unevaluated
+/// bound reaches the best value less [`TIE`]. Every candidate that could be
+/// the choice (or tie with it) is then evaluated: the result is that of
+/// evaluating all of them.
 pub fn place<T: Prediction>(
     g: Matrix<'_, T>,
     widths: &[f64],
@@ -195,6 +221,7 @@ pub fn place<T: Prediction>(
         .max(1);
     let mut part = Partition::new(n, &clog);
     let mut taken = vec![false; l];
+    let mut bound = vec![f64::INFINITY; l];
     let mut out = Placement {
         order: Vec::new(),
         entropy: Vec::new(),
@@ -203,14 +230,13 @@ pub fn place<T: Prediction>(
     let mut spent = 0.0;
     let mut bins = vec![0u32; n];
     let mut map = vec![0u32; count_len];
+    let cost = |i: usize| opts.costs.as_ref().map_or(1.0, |c| c[i]);
     let mut add = |i: usize, part: &mut Partition, out: &mut Placement, spent: &mut f64| {
-        column_bins(g, &binning, i, &mut bins);
+        column_bins(g, &binning, i, Some(part.confused()), &mut bins);
         part.refine(&bins, &mut map, &clog);
         out.order.push(i);
         out.entropy.push(part.entropy());
-        if let Some(c) = &opts.costs {
-            *spent += c[i];
-        }
+        *spent += cost(i);
     };
     for &i in &opts.fixed {
         taken[i] = true;
@@ -220,39 +246,56 @@ pub fn place<T: Prediction>(
         if stop() {
             return Err(EdmfError::Interrupted);
         }
-        let cost = |i: usize| opts.costs.as_ref().map_or(1.0, |c| c[i]);
-        let remaining: Vec<usize> = (0..l)
+        let mut remaining: Vec<usize> = (0..l)
             .filter(|&i| !taken[i])
             .filter(|&i| opts.budget.is_none_or(|b| spent + cost(i) <= b))
             .collect();
         if remaining.is_empty() {
             break;
         }
+        // Highest bound first; equal bounds in index order.
+        remaining.sort_by(|&a, &b| bound[b].total_cmp(&bound[a]).then(a.cmp(&b)));
         let h = part.entropy();
-        let scores: Vec<f64> = pool.install(|| {
-            remaining
-                .par_chunks(BLOCK)
-                .map_init(
-                    || Scratch {
-                        bins: vec![0u32; BLOCK * n],
-                        count: vec![0u32; count_len],
-                    },
-                    |s, block| score_block(g, &binning, &part, block, &clog, s),
-                )
-                .flatten_iter()
-                .collect()
-        });
-        out.evaluations += remaining.len() as u64;
-        let value: Vec<f64> = remaining
-            .iter()
-            .zip(&scores)
-            .map(|(&i, &acc)| (entropy_of(n, acc) - h) / cost(i))
-            .collect();
-        let best = value.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        // `remaining` is in index order: the first within TIE is the lowest index.
-        let j = value.iter().position(|&v| v >= best - TIE).unwrap_or(0);
-        let i = remaining[j];
-        let gain = entropy_of(n, scores[j]) - h;
+        let mut evaluated: Vec<(usize, f64, f64)> = Vec::new(); // (location, value, gain)
+        let mut best = f64::NEG_INFINITY;
+        let mut next = 0;
+        while next < remaining.len() {
+            if bound[remaining[next]] + SLACK < best - TIE {
+                break; // no unevaluated location can reach the best (or tie with it)
+            }
+            let size = if bound[remaining[next]].is_infinite() {
+                remaining.len()
+            } else {
+                LAZY_BATCH
+            };
+            let batch = &remaining[next..(next + size).min(remaining.len())];
+            next += batch.len();
+            let scores: Vec<f64> = pool.install(|| {
+                batch
+                    .par_chunks(BLOCK)
+                    .map_init(
+                        || Scratch {
+                            bins: vec![0u32; BLOCK * n],
+                            count: vec![0u32; count_len],
+                        },
+                        |s, block| score_block(g, &binning, &part, block, &clog, s),
+                    )
+                    .flatten_iter()
+                    .collect()
+            });
+            out.evaluations += batch.len() as u64;
+            for (&i, &acc) in batch.iter().zip(&scores) {
+                let gain = entropy_of(n, acc) - h;
+                let value = gain / cost(i);
+                bound[i] = value;
+                best = best.max(value);
+                evaluated.push((i, value, gain));
+            }
+        }
+        // The lowest index among the values within TIE of the best.
+        let Some(&(i, _, gain)) = evaluated.iter().filter(|e| e.1 >= best - TIE).min_by_key(|e| e.0) else {
+            break; // not reached: the first candidate is always evaluated
+        };
         if opts.tolerance.is_some_and(|t| gain < t) {
             break;
         }
