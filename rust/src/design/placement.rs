@@ -9,12 +9,13 @@
 //! last bits of its sum, and a tie must not depend on that.
 //!
 //! Each step evaluates every remaining location (the exact greedy choice;
-//! submodularity would allow lazy evaluation with the same result), in
-//! parallel over blocks of neighbouring locations so that one read of a row
-//! serves a whole block.
+//! submodularity would allow lazy evaluation with the same result, but a
+//! location read alone costs a cache line per instance, so whole tiles of
+//! neighbouring locations are read and evaluated together, in parallel).
 
 use rayon::prelude::*;
 use rayon::ThreadPool;
+use std::sync::Mutex;
 
 use super::entropy::{clog_table, column_bins, dense_bin, dense_cap, entropy_of, Binning, Partition};
 use crate::error::{EdmfError, Result};
@@ -23,9 +24,6 @@ use crate::matrix::Matrix;
 
 /// Gains (bits, or bits per unit cost) this close to the best are ties.
 pub const TIE: f64 = 1e-9;
-
-/// Locations read together from each row.
-const BLOCK: usize = 8;
 
 /// What the greedy placement may choose and when it stops.
 #[derive(Debug, Clone, Default)]
@@ -160,7 +158,22 @@ fn score_block<T: Prediction>(
     let width: Vec<f64> = cols.iter().map(|&i| binning.width[i]).collect();
     let nan: Vec<u32> = cols.iter().map(|&i| binning.nan_label(i)).collect();
     let bins = &mut s.bins[..block.len() * n];
-    for &k in part.confused() {
+    let rows = part.confused();
+    // Sparse rows defeat the hardware prefetcher: ask for the tile's cache
+    // lines of the row AHEAD rows on (C order; one hint per 8 values).
+    const AHEAD: usize = 8;
+    let hint = g.rows_contiguous() && rows.len() < n;
+    for (r, &k) in rows.iter().enumerate() {
+        if hint {
+            if let Some(&next) = rows.get(r + AHEAD) {
+                for j in (0..cols.len()).step_by(8) {
+                    g.prefetch(next as usize, cols[j]);
+                }
+                if let Some(&last) = cols.last() {
+                    g.prefetch(next as usize, last);
+                }
+            }
+        }
         let k = k as usize;
         for j in 0..cols.len() {
             let v = g.get(k, cols[j]).to_f64();
@@ -180,21 +193,18 @@ fn score_block<T: Prediction>(
         .collect()
 }
 
-/// Candidates evaluated together once the first step has bounded every gain.
-const LAZY_BATCH: usize = 2 * BLOCK;
-
-/// Rounding allowance on the bounds: a gain computed later may exceed the
-/// same gain computed earlier by a few ulps.
-const SLACK: f64 = 1e-12;
+/// Locations read together from each row: enough for whole cache lines, few
+/// enough that their bins (4 bytes per instance each) stay within ~8 MiB.
+fn tile_width(n: usize) -> usize {
+    ((8 << 20) / (4 * n.max(1))).clamp(8, 64)
+}
 
 /// Greedy placement over the columns of `g` (instances x candidate locations).
 ///
-/// Lazy evaluation (Minoux 1978): by submodularity of the joint entropy, a
-/// location's gain (per unit cost) at an earlier step bounds its gain now, so
-/// candidates are evaluated in order of their bounds until no unevaluated
-/// bound reaches the best value less [`TIE`]. Every candidate that could be
-/// the choice (or tie with it) is then evaluated: the result is that of
-/// evaluating all of them.
+/// Every step evaluates every remaining location (the exact greedy choice),
+/// reading the predictions in tiles of neighbouring locations, row after row
+/// of the instances still confused with another: each cache line read serves
+/// a whole tile, and the rows read shrink as the instances are told apart.
 pub fn place<T: Prediction>(
     g: Matrix<'_, T>,
     widths: &[f64],
@@ -219,9 +229,18 @@ pub fn place<T: Prediction>(
         .unwrap_or(0)
         .min(cap)
         .max(1);
+    let tile = tile_width(n);
+    // Working space per worker, kept across steps: O(N) each.
+    let scratch: Vec<Mutex<Scratch>> = (0..pool.current_num_threads().max(1))
+        .map(|_| {
+            Mutex::new(Scratch {
+                bins: vec![0u32; tile * n],
+                count: vec![0u32; count_len],
+            })
+        })
+        .collect();
     let mut part = Partition::new(n, &clog);
     let mut taken = vec![false; l];
-    let mut bound = vec![f64::INFINITY; l];
     let mut out = Placement {
         order: Vec::new(),
         entropy: Vec::new(),
@@ -246,52 +265,36 @@ pub fn place<T: Prediction>(
         if stop() {
             return Err(EdmfError::Interrupted);
         }
-        let mut remaining: Vec<usize> = (0..l)
+        let remaining: Vec<usize> = (0..l)
             .filter(|&i| !taken[i])
             .filter(|&i| opts.budget.is_none_or(|b| spent + cost(i) <= b))
             .collect();
         if remaining.is_empty() {
             break;
         }
-        // Highest bound first; equal bounds in index order.
-        remaining.sort_by(|&a, &b| bound[b].total_cmp(&bound[a]).then(a.cmp(&b)));
         let h = part.entropy();
-        let mut evaluated: Vec<(usize, f64, f64)> = Vec::new(); // (location, value, gain)
-        let mut best = f64::NEG_INFINITY;
-        let mut next = 0;
-        while next < remaining.len() {
-            if bound[remaining[next]] + SLACK < best - TIE {
-                break; // no unevaluated location can reach the best (or tie with it)
-            }
-            let size = if bound[remaining[next]].is_infinite() {
-                remaining.len()
-            } else {
-                LAZY_BATCH
-            };
-            let batch = &remaining[next..(next + size).min(remaining.len())];
-            next += batch.len();
-            let scores: Vec<f64> = pool.install(|| {
-                batch
-                    .par_chunks(BLOCK)
-                    .map_init(
-                        || Scratch {
-                            bins: vec![0u32; BLOCK * n],
-                            count: vec![0u32; count_len],
-                        },
-                        |s, block| score_block(g, &binning, &part, block, &clog, s),
-                    )
-                    .flatten_iter()
-                    .collect()
-            });
-            out.evaluations += batch.len() as u64;
-            for (&i, &acc) in batch.iter().zip(&scores) {
+        let scores: Vec<f64> = pool.install(|| {
+            remaining
+                .par_chunks(tile)
+                .map(|block| {
+                    // The worker's own scratch (locked by this worker only).
+                    let slot = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+                    let mut s = scratch[slot].lock().unwrap_or_else(|e| e.into_inner());
+                    score_block(g, &binning, &part, block, &clog, &mut s)
+                })
+                .flatten_iter()
+                .collect()
+        });
+        out.evaluations += remaining.len() as u64;
+        let evaluated: Vec<(usize, f64, f64)> = remaining
+            .iter()
+            .zip(&scores)
+            .map(|(&i, &acc)| {
                 let gain = entropy_of(n, acc) - h;
-                let value = gain / cost(i);
-                bound[i] = value;
-                best = best.max(value);
-                evaluated.push((i, value, gain));
-            }
-        }
+                (i, gain / cost(i), gain)
+            })
+            .collect();
+        let best = evaluated.iter().map(|e| e.1).fold(f64::NEG_INFINITY, f64::max);
         // The lowest index among the values within TIE of the best.
         let Some(&(i, _, gain)) = evaluated.iter().filter(|e| e.1 >= best - TIE).min_by_key(|e| e.0) else {
             break; // not reached: the first candidate is always evaluated
