@@ -34,3 +34,29 @@ class Falsifier:
     def candidates(self, start: int = 0) -> npt.NDArray[np.uint64]: ...
     def tally(self) -> tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64], int] | None: ...
     def take_violations(self) -> npt.NDArray[np.uint32] | None: ...
+
+# Measurement-system design (rust/bindings/src/design.rs).
+def design_joint_entropy(
+    predictions: npt.NDArray[np.float64] | npt.NDArray[np.float32],
+    widths: npt.NDArray[np.float64],
+    sensors: list[int],
+    nan_bin: bool = False,
+) -> float: ...
+def design_place(
+    predictions: npt.NDArray[np.float64] | npt.NDArray[np.float32],
+    widths: npt.NDArray[np.float64],
+    k: int,
+    fixed: list[int],
+    costs: npt.NDArray[np.float64] | None = None,
+    budget: float | None = None,
+    tolerance: float | None = None,
+    nan_bin: bool = False,
+) -> tuple[npt.NDArray[np.uint64], npt.NDArray[np.float64], int]: ...
+def design_candidate_counts(
+    predictions: npt.NDArray[np.float64] | npt.NDArray[np.float32],
+    sensors: list[int],
+    truth: npt.NDArray[np.uint64],
+    residuals: npt.NDArray[np.float64],
+    low: npt.NDArray[np.float64],
+    high: npt.NDArray[np.float64],
+) -> npt.NDArray[np.uint64]: ...
