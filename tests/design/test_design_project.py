@@ -65,3 +65,19 @@ def test_bad_design_table_names_the_key(small_project, tmp_path, capsys):
     toml.write_text(small_project.read_text().replace("k = 12", "k = 500"))
     assert main(["design", str(toml), "--out", str(tmp_path / "o")]) == 2
     assert "design.k" in capsys.readouterr().err
+
+
+def test_girder_candidates_at_the_test_sensors_equal_the_identification_model():
+    from edmf_rs.examples import girder, girder_design
+
+    theta = np.array([[36e3, 3e11, 2e5], [25e3, 1e10, 1e3], [48e3, 1e14, 1e7]])
+    g = girder_design.predict(theta)
+    expected = girder.predict(theta)
+    for j, (_, kind, x, _) in enumerate(girder.SENSORS):
+        name = ("D" if kind == "deflection" else "SG") + f"{x / 1000:g}-LC1"
+        np.testing.assert_allclose(g[name].to_numpy(), expected[:, j], rtol=1e-10)
+    # The second load case is the first one mirrored: the girder's model is not
+    # symmetric (rotational spring on the left only), so they differ.
+    assert not np.allclose(g["D5-LC2"], g["D15-LC1"])
+    # Between nodes the Hermite deflection lies between its neighbours' here (rising towards the truck).
+    assert np.all((g["D3.5-LC1"] - g["D3-LC1"]) * (g["D4-LC1"] - g["D3.5-LC1"]) >= 0)
