@@ -123,7 +123,7 @@ def main(argv=None) -> None:
 
     if a.big:
         n, n_loc = a.big
-        with tempfile.TemporaryDirectory(dir=".") as tmp:
+        with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "g.npy"
             mm = np.lib.format.open_memmap(path, mode="w+", dtype=np.float32, shape=(n, n_loc))
             for s in range(0, n, 100_000):

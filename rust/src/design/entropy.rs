@@ -240,21 +240,32 @@ impl Partition {
 
     /// `sum_t c_t log2 c_t` after adding a location whose dense bins are
     /// `bins`, without changing the partition. `count` must be zeros, of at
-    /// least the bin count; it is left zeroed.
+    /// least the bin count; it is left zeroed. Each member's bin is read
+    /// once: the bins a group touches are listed as they first appear.
     pub fn score(&self, bins: &[u32], count: &mut [u32], clog: &[f64]) -> f64 {
         let mut acc = 0.0;
+        let mut touched: Vec<u32> = Vec::new();
         for w in self.starts.windows(2) {
             let members = &self.order[w[0] as usize..w[1] as usize];
-            for &k in members {
-                count[bins[k as usize] as usize] += 1;
-            }
-            for &k in members {
-                let b = bins[k as usize] as usize;
-                let c = count[b];
-                if c > 0 {
-                    acc += clog[c as usize];
-                    count[b] = 0;
+            if let [a, b] = members {
+                // A pair (the commonest group late on) stays together or splits.
+                if bins[*a as usize] == bins[*b as usize] {
+                    acc += clog[2];
                 }
+                continue;
+            }
+            touched.clear();
+            for &k in members {
+                let b = bins[k as usize];
+                let c = &mut count[b as usize];
+                if *c == 0 {
+                    touched.push(b);
+                }
+                *c += 1;
+            }
+            for &b in &touched {
+                acc += clog[count[b as usize] as usize];
+                count[b as usize] = 0;
             }
         }
         acc
