@@ -68,18 +68,18 @@ def locations(values, name: str, n_locations: int, *, distinct: bool = True) -> 
     """Location indices in range (and distinct)."""
     if isinstance(values, np.ndarray):
         values = values.tolist()
-    try:
-        out = [index(v, name) for v in values]
-    except TypeError:
-        raise
-    except Exception:
-        raise TypeError(f"{name}: expected a sequence of location indices, got {values!r}") from None
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise TypeError(f"{name}: expected a sequence of location indices, got {values!r}")
+    out = [index(v, name) for v in values]
     for i in out:
         if not 0 <= i < n_locations:
             raise ValueError(f"{name}: expected location indices in [0, {n_locations}), got {i}")
-    if distinct and len(set(out)) != len(out):
-        dup = next(i for i in out if out.count(i) > 1)
-        raise ValueError(f"{name}: expected distinct locations, got {dup} more than once")
+    if distinct:
+        seen: set[int] = set()
+        for i in out:
+            if i in seen:
+                raise ValueError(f"{name}: expected distinct locations, got {i} more than once")
+            seen.add(i)
     return out
 
 

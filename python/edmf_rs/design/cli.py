@@ -18,7 +18,7 @@ def run_design(project_path, out=None) -> dict:
     """Runs a design project; returns the paths written."""
     start = time.perf_counter()
     project = read_design_project(project_path)
-    out = Path(out) if out is not None else Path(project.file).with_suffix("").parent / f"{Path(project.file).stem}-out"
+    out = Path(out) if out is not None else Path(project.file).parent / f"{Path(project.file).stem}-out"
     g = project.predictions()
     combined = project.combined_uncertainty(g)
     widths = interval_widths(combined, project.k, project.phi, project.correction)

@@ -37,6 +37,13 @@ class SensorDesign:
         Sensor type of each chosen location, when types were given.
     evaluations : int
         (step, location) pairs evaluated.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = place_sensors(np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 2.0], [1.0, 3.0]]), [0.5, 0.5], k=2)
+    >>> d.order.tolist(), d.gains.tolist()
+    ([1, 0], [2.0, 0.0])
     """
 
     order: np.ndarray
