@@ -34,7 +34,7 @@ _command = bool(_sys.argv) and (_sys.argv[0] == "-m" or _sys.argv[0].replace("\\
 if _command:
     _sys.excepthook = _interrupted_while_importing
 
-from . import examples, reference
+from . import design, examples, reference
 from ._core import get_num_threads, set_num_threads
 from .adaptive import adaptive_falsify
 from .engine.falsify import falsify
@@ -74,6 +74,7 @@ __all__ = [
     "combine",
     "concatenate",
     "coverage",
+    "design",
     "examples",
     "falsify",
     "falsify_model",

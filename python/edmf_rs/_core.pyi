@@ -108,3 +108,28 @@ class RowDigest:
     def n_blocks(self) -> int: ...
     def blocks(self, start: int = 0) -> list[str]: ...
     def partial(self) -> str | None: ...
+# Measurement-system design (rust/bindings/src/design.rs).
+def design_joint_entropy(
+    predictions: npt.NDArray[np.float64] | npt.NDArray[np.float32],
+    widths: npt.NDArray[np.float64],
+    sensors: list[int],
+    nan_bin: bool = False,
+) -> float: ...
+def design_place(
+    predictions: npt.NDArray[np.float64] | npt.NDArray[np.float32],
+    widths: npt.NDArray[np.float64],
+    k: int,
+    fixed: list[int],
+    costs: npt.NDArray[np.float64] | None = None,
+    budget: float | None = None,
+    tolerance: float | None = None,
+    nan_bin: bool = False,
+) -> tuple[npt.NDArray[np.uint64], npt.NDArray[np.float64], int]: ...
+def design_candidate_counts(
+    predictions: npt.NDArray[np.float64] | npt.NDArray[np.float32],
+    sensors: list[int],
+    truth: npt.NDArray[np.uint64],
+    residuals: npt.NDArray[np.float64],
+    low: npt.NDArray[np.float64],
+    high: npt.NDArray[np.float64],
+) -> npt.NDArray[np.uint64]: ...

@@ -75,6 +75,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--threads", type=int, default=None, metavar="N",
                      help="threads of the Rust core (default: all cores)")
     run.add_argument("--no-progress", action="store_true", help="hide the progress line")
+
+    des = sub.add_parser("design", parents=[common], help="choose sensor locations before the test: "
+                         "joint-entropy placement and expected identifiability (a project with [design])")
+    des.add_argument("project", help="design project file, e.g. girder-design.toml")
+    des.add_argument("--out", default=None, help="output folder (default: PROJECT-out next to the project file)")
     return parser
 
 
@@ -90,6 +95,10 @@ def main(argv: list[str] | None = None) -> int:
             from .paper.reproduce import reproduce_cli
 
             return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed)
+        if args.command == "design":
+            from .design.cli import design_cli
+
+            return design_cli(args.project, out=args.out)
         from .project.command import run_cli
 
         if args.example:

@@ -214,3 +214,11 @@ def falsify(predictions, measurements, thresholds: Thresholds) -> FalsificationR
         n_invalid=int(np.isnan(g).any(axis=1).sum()),
         n_violated=n_violated.astype(np.int32),
     )
+# Measurement-system design (joint entropy, greedy placement, expected identifiability):
+from .design.reference import (  # noqa: E402,F401,E501
+    candidate_counts,
+    draw_simulations,
+    expected_identifiability,
+    joint_entropy,
+    place_sensors,
+)

@@ -86,6 +86,28 @@ impl<'a, T: Copy> Matrix<'a, T> {
         self.data[i * self.row_stride + j * self.col_stride]
     }
 
+    /// Asks the CPU to start loading the cache line of element (i, j), for
+    /// rows read in an order the hardware prefetcher cannot guess. A hint only:
+    /// out-of-range indices and other architectures do nothing.
+    #[inline(always)]
+    pub fn prefetch(&self, i: usize, j: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(p) = self.data.get(i * self.row_stride + j * self.col_stride) {
+            // SAFETY: a prefetch never faults and `p` points into `data`.
+            #[allow(unused_unsafe)]
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p as *const T as *const i8)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (i, j);
+    }
+
+    /// Whether each row is contiguous (C order).
+    pub fn rows_contiguous(&self) -> bool {
+        self.col_stride == 1
+    }
+
     /// Row `i` as a slice when rows are contiguous (C order), else `None`.
     #[inline(always)]
     pub fn row_slice(&self, i: usize) -> Option<&'a [T]> {

@@ -7,12 +7,11 @@ than a block of rows; chunkings, thread counts, with and without diagnostics.
 tests/test_short_rows_isa.py runs this file again at every instruction-set
 level the CPU has (``EDMF_RS_ISA``)."""
 
+import edmf_rs
 import numpy as np
+from edmf_rs import reference
 from hypothesis import given
 from hypothesis import strategies as st
-
-import edmf_rs
-from edmf_rs import reference
 
 ARRAYS = ("candidate_indices", "per_sensor_falsified", "falsified_only_by", "n_violated")
 

@@ -19,7 +19,7 @@ MODULES = sorted(m.name for m in pkgutil.walk_packages([str(PACKAGE)], "edmf_rs.
 ALLOWED = {
     "stream": set(),
     "engine": {"stream"},
-    "reference": {"engine"},
+    "reference": {"engine", "design"},
     "dask": {"engine", "stream"},
     "paper": {"engine", "stream", "examples"},
     "examples": {"paper", "stream"},

@@ -6,6 +6,7 @@
 //! package; the core re-checks everything it relies on.
 
 mod digest;
+mod design;
 mod pool;
 mod screening;
 mod views;
@@ -188,5 +189,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Falsifier>()?;
     m.add_function(wrap_pyfunction!(screening::screen_emulator, m)?)?;
     m.add_class::<digest::RowDigest>()?;
+    design::register(m)?;
     Ok(())
 }

@@ -1,0 +1,95 @@
+"""Argument checks of the design functions: each error names the argument."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+NAN_POLICIES = ("raise", "bin")
+
+
+def predictions_array(predictions) -> np.ndarray:
+    """A 2-D float64 or float32 array read in place (memory maps included);
+    other real dtypes are converted to float64."""
+    try:
+        g = predictions if isinstance(predictions, np.ndarray) else np.asarray(predictions)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"predictions: expected a 2-D array of numbers ({exc})") from None
+    if g.dtype.kind not in "iuf":
+        raise TypeError(f"predictions: expected real numbers, got dtype {g.dtype}")
+    if g.ndim != 2:
+        raise ValueError(f"predictions: expected shape (instances, locations), got shape {g.shape}")
+    if g.shape[0] < 1 or g.shape[1] < 1:
+        raise ValueError(f"predictions: expected at least one instance and one location, got shape {g.shape}")
+    if g.dtype not in (np.float64, np.float32):
+        g = g.astype(np.float64)
+    if any(s < 0 for s in g.strides) or not g.flags.aligned:
+        g = np.ascontiguousarray(g)
+    return g
+
+
+def widths_vector(widths, n_locations: int) -> np.ndarray:
+    w = _vector(widths, "widths", n_locations)
+    bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
+    if bad.size:
+        raise ValueError(f"widths: expected finite widths > 0, got {w[bad[0]]} at location {bad[0]}")
+    return w
+
+
+def costs_vector(costs, n_locations: int) -> np.ndarray:
+    c = _vector(costs, "costs", n_locations)
+    bad = np.flatnonzero(~(np.isfinite(c) & (c > 0)))
+    if bad.size:
+        raise ValueError(f"costs: expected finite costs > 0, got {c[bad[0]]} at location {bad[0]}")
+    return c
+
+
+def _vector(values, name: str, n: int) -> np.ndarray:
+    try:
+        v = np.asarray(values)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name}: expected a 1-D array of numbers ({exc})") from None
+    if v.dtype.kind not in "iuf":
+        raise TypeError(f"{name}: expected numbers, got dtype {v.dtype}")
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    if v.shape != (n,):
+        raise ValueError(f"{name}: expected one value per location ({n}), got shape {v.shape}")
+    return v
+
+
+def index(value, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name}: expected location indices (integers), got {value!r}")
+    return int(value)
+
+
+def locations(values, name: str, n_locations: int, *, distinct: bool = True) -> list[int]:
+    """Location indices in range (and distinct)."""
+    if isinstance(values, np.ndarray):
+        values = values.tolist()
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise TypeError(f"{name}: expected a sequence of location indices, got {values!r}")
+    out = [index(v, name) for v in values]
+    for i in out:
+        if not 0 <= i < n_locations:
+            raise ValueError(f"{name}: expected location indices in [0, {n_locations}), got {i}")
+    if distinct:
+        seen: set[int] = set()
+        for i in out:
+            if i in seen:
+                raise ValueError(f"{name}: expected distinct locations, got {i} more than once")
+            seen.add(i)
+    return out
+
+
+def nan_bin(policy: str) -> bool:
+    if policy not in NAN_POLICIES:
+        raise ValueError(f"nan_policy: expected one of {NAN_POLICIES}, got {policy!r}")
+    return policy == "bin"
+
+
+def non_negative(value, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
+        raise ValueError(f"{name}: expected a finite number >= 0, got {value!r}")
+    return float(value)

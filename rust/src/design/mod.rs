@@ -1,0 +1,18 @@
+//! Measurement-system design: where to put sensors so that EDMF falsifies
+//! the most model instances.
+//!
+//! - [`entropy`]: joint entropy of the binned predictions of a set of
+//!   locations (Papadopoulou, Raphael, Smith & Sekhar 2014, Entropy 16:5078).
+//! - [`placement`]: hierarchical (greedy) placement by joint entropy, per unit
+//!   cost and within a budget (Bertola, Papadopoulou, Vernay & Smith 2017,
+//!   Sensors 17:2904).
+//! - [`identifiability`]: expected candidate-set sizes of a set of sensors by
+//!   simulating measurements (Goulet & Smith 2013, Eqs. 4 and 8).
+
+pub mod entropy;
+pub mod identifiability;
+pub mod placement;
+
+pub use entropy::joint_entropy;
+pub use identifiability::candidate_counts;
+pub use placement::{place, Placement, PlacementOptions, TIE};
