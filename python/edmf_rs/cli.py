@@ -11,6 +11,8 @@ import os
 import sys
 from pathlib import Path
 
+from .simulators.failures import SimulationError
+
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -33,6 +35,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default=None,
                      help="output folder (default: next to the project file; ./NAME for --example)")
     run.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    run.add_argument("--workers", type=int, default=None,
+                     help="parallel model runs (default: [model] workers in the project file, else 1)")
     return parser
 
 
@@ -56,7 +60,12 @@ def main(argv: list[str] | None = None) -> int:
             project, out = EXAMPLES / f"{args.example}.toml", args.out or args.example
         else:
             project, out = args.project, args.out
-        return run_cli(project, out=out, progress=not args.no_progress)
+        if args.workers is not None and args.workers < 1:
+            raise ValueError(f"--workers: expected a number of parallel runs >= 1, got {args.workers}")
+        return run_cli(project, out=out, progress=not args.no_progress, workers=args.workers)
+    except SimulationError as exc:  # the model's runs failed: user code, not the project file
+        print(f"edmf-rs: error: {exc}", file=sys.stderr)
+        return 1
     except (ValueError, TypeError, OSError) as exc:
         if os.environ.get("EDMF_RS_DEBUG"):
             raise

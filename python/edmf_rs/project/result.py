@@ -74,6 +74,8 @@ class Identification:
     prognoses: tuple[Prognosis, ...]
     sample: InstanceSample
     elapsed: float
+    #: model_evaluations, reused_evaluations, failed_instances, prediction_store (None: no evaluator used)
+    evaluation: dict | None = None
 
     @property
     def model_class_falsified(self) -> bool:
@@ -134,8 +136,15 @@ class Identification:
                 unit = f" [{param.unit}]" if param.unit else ""
                 lines.append(f"  {param.name}{unit}: {number(lo)} .. {number(hi)}  "
                              f"(domain {number(param.low)} .. {number(param.high)})")
-        if r.n_invalid:
+        ev = self.evaluation or {}
+        if ev.get("failed_instances"):
+            lines.append(f"failed model runs (neither candidates nor falsified, see failures.csv): "
+                         f"{ev['failed_instances']:,}")
+        if r.n_invalid and r.n_invalid != ev.get("failed_instances"):
             lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
+        if ev:
+            lines.append(f"model evaluations: {ev['model_evaluations']:,}, reused from the prediction store: "
+                         f"{ev['reused_evaluations']:,}")
         lines += [f"- {text}" for text in self.findings()]
         lines += [f"prognosis: {prog.summary()}" for prog in self.prognoses]
         return "\n".join(lines)
@@ -150,6 +159,9 @@ class Identification:
             "project": {"name": p.name, "file": p.file.name, "description": p.description},
             "instances": r.n_instances, "candidates": r.n_candidates, "invalid": r.n_invalid,
             "model_class_falsified": r.model_class_falsified,
+            "model_evaluations": (self.evaluation or {}).get("model_evaluations"),
+            "reused_evaluations": (self.evaluation or {}).get("reused_evaluations"),
+            "failed_instances": (self.evaluation or {}).get("failed_instances", 0),
             "identification": {
                 "phi": p.phi, "correction": p.correction, "per_sensor_probability": t.probability,
                 "combined_uncertainty": "exact" if self.combined.exact else "monte_carlo",

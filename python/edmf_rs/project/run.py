@@ -36,6 +36,7 @@ from .result import Identification, PlotSample
 from .sampling import Parameter, Sampling
 from .schema import ModelSpec, PrognosisSpec, ProjectError, Sensor, read_spec
 from .sources import UncertaintySource, combine_sources, frozen, resolve_sources
+from ..simulators import CommandModel, Evaluator, FailurePolicy
 
 __all__ = ["Project", "ProjectError", "run_cli"]
 
@@ -65,6 +66,7 @@ class Project:
     n_model_columns: int
     kept: tuple[int, ...]
     prognosis: tuple[tuple[PrognosisSpec, Callable], ...]
+    command: CommandModel | None = None  # [model] command: an external program
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Project:
@@ -87,8 +89,10 @@ class Project:
             raise ProjectError(f"{label}: 'instance' names the index of candidates.parquet; expected another "
                                "name for that parameter or sensor")
         sensors = tuple(all_sensors[i] for i in kept)
-        model_function = None
-        if spec.model.function is not None:
+        model_function = command = None
+        if spec.model.command is not None:
+            command = _command_model(spec, all_sensors, label)
+        elif spec.model.function is not None:
             model_function = import_function(spec.model.function, spec.model.path, label, "model.function")
         else:
             _check_precomputed(spec.model, spec.parameters, all_sensors, sensors, label)
@@ -101,7 +105,7 @@ class Project:
             excluded=tuple(s for i, s in enumerate(all_sensors) if i not in kept),
             uncertainty=resolve_sources(spec.uncertainty, all_sensors, kept, label),
             model=spec.model, model_function=model_function, n_model_columns=len(all_sensors), kept=kept,
-            prognosis=prognosis,
+            prognosis=prognosis, command=command,
         )
 
     @property
@@ -129,12 +133,27 @@ class Project:
             raise ProjectError(f"{self.file}: identification.n_samples: {exc}") from None
         return combined
 
-    def run(self, *, progress: bool = True) -> Identification:
-        """Thresholds, falsification of every instance and diagnostics, in one pass."""
+    def run(self, *, progress: bool = True, out: str | Path | None = None,
+            workers: int | None = None) -> Identification:
+        """Thresholds, falsification of every instance and diagnostics, in one pass.
+
+        ``out``: the output folder, where the evaluated instances are stored
+        as they arrive (``out/store``, reused by the next run with the same
+        model and sampling) with failed runs in ``out/failures.csv``;
+        ``workers``: parallel model runs (default: ``[model] workers``).
+        """
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)
-        model, parameters, n_instances = self._instances()
+        evaluator = self._evaluator(out, workers)
+        try:
+            return self._run(start, combined, thresholds, evaluator, progress)
+        finally:
+            if evaluator is not None:
+                evaluator.close()
+
+    def _run(self, start, combined, thresholds, evaluator, progress) -> Identification:
+        model, parameters, n_instances = self._instances(evaluator)
         tracker = SensitivityTracker(thresholds, combined, self.measured)
         sample = PlotSample(n_instances)
 
@@ -143,7 +162,8 @@ class Project:
             sample(offset, theta, predictions)
 
         result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
-                               progress=progress, nan=self.model.nan, on_batch=on_batch)
+                               progress=progress, nan="falsify" if self.command else self.model.nan,
+                               on_batch=on_batch)
         candidates = pd.DataFrame(
             np.hstack([result.candidate_parameters, result.candidate_predictions]),
             columns=[*self.parameter_names, *self.sensor_names],
@@ -157,16 +177,37 @@ class Project:
             project=self, combined=combined, thresholds=thresholds, falsification=result,
             leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
             candidates=candidates, prognoses=prognoses, sample=sample.finish(result.candidate_mask),
-            elapsed=time.perf_counter() - start,
+            elapsed=time.perf_counter() - start, evaluation=evaluator.stats() if evaluator else None,
         )
 
-    def _instances(self):
+    def _evaluator(self, out, workers) -> Evaluator | None:
+        """The simulators' evaluator (store, parallel runs, external programs), or None when not needed."""
+        m = self.model
+        workers = m.workers if workers is None else workers
+        if m.predictions is not None or (out is None and self.command is None and workers == 1):
+            return None
+        names = [None] * self.n_model_columns
+        for i, s in zip(self.kept, self.sensors):
+            names[i] = s.name
+        rest = iter(s.name for s in self.excluded)
+        names = [n if n is not None else next(rest) for n in names]
+        sampling = {"method": self.sampling.method, "seed": self.sampling.seed, "points": self.sampling.points,
+                    "n": self.sampling.n if self.sampling.method == "lhs" else None,  # Sobol' and grids extend
+                    "parameters": [(p.name, p.low, p.high, p.scale) for p in self.parameters], "sensors": names}
+        return Evaluator(self.parameter_names, names, self.sampling.n, command=self.command,
+                         function=self.model_function, ref=m.function or "", path=m.path, options=m.options,
+                         workers=workers, out=out, sampling=sampling, store=m.store,
+                         policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate))
+
+    def _instances(self, evaluator: Evaluator | None = None):
         """(model callable, parameters, N) for falsify_model."""
-        where = f"{self.file}: model.function = '{self.model.function}'"
-        if self.model_function is not None:
-            model = CheckedModel(self.model_function, self.model.options, n_columns=self.n_model_columns,
-                                 kept=self.kept, parameter_names=self.parameter_names, nan=self.model.nan,
-                                 where=where)
+        what = f"command = {list(self.command.spec.command)}" if self.command else f"function = '{self.model.function}'"
+        where = f"{self.file}: model.{what}"
+        if self.model_function is not None or evaluator is not None:
+            function, options = (evaluator, {}) if evaluator is not None else (self.model_function, self.model.options)
+            model = CheckedModel(function, options, n_columns=self.n_model_columns,
+                                 kept=self.kept, parameter_names=self.parameter_names,
+                                 nan="falsify" if self.command else self.model.nan, where=where)
             return model, self.sampling.batches(self.model.batch_size), self.sampling.n
         theta, predictions = _read_precomputed(self)
         offset = 0
@@ -190,6 +231,14 @@ class Project:
                            probability=spec.probability, name=spec.name, unit=spec.unit)
         except ValueError as exc:
             raise ProjectError(f"{self.file}: {spec.key}.function = '{spec.function}': {exc}") from None
+
+
+def _command_model(spec, all_sensors, label: str) -> CommandModel:
+    """The external program, checked before anything runs (program, templates, placeholders, parser)."""
+    try:
+        return CommandModel(spec.model.command, [p.name for p in spec.parameters], [s.name for s in all_sensors])
+    except ValueError as exc:
+        raise ProjectError(f"{label}: model.{exc}") from None
 
 
 def _check_precomputed(model: ModelSpec, parameters, all_sensors, sensors, label: str) -> None:
@@ -226,12 +275,13 @@ def default_out(project_file: str | Path) -> Path:
     return project_file.with_name(project_file.stem)
 
 
-def run_cli(project_path: str, out: str | None = None, progress: bool = True) -> int:
-    """``edmf-rs run PROJECT.toml [--out DIR]``: run, write the outputs, print a short summary."""
+def run_cli(project_path: str, out: str | None = None, progress: bool = True, workers: int | None = None) -> int:
+    """``edmf-rs run PROJECT.toml [--out DIR] [--workers N]``: run, write the outputs, print a short summary."""
     started = time.perf_counter()
     project = Project.from_toml(project_path)
-    identification = project.run(progress=progress)
-    out_dir = identification.write(Path(out) if out is not None else default_out(project_path))
+    out_dir = Path(out) if out is not None else default_out(project_path)
+    identification = project.run(progress=progress, out=out_dir, workers=workers)
+    identification.write(out_dir)
     print(identification.summary())
     print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "
           f"in {time.perf_counter() - started:.1f} s")
