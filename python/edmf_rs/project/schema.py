@@ -1,5 +1,8 @@
 """The project file (TOML): reading and checking every table.
 
+Longer than 450 lines: one reader per table of the file, kept together so the
+format reads top to bottom as the project file does.
+
 Each check names the file, the dotted key (``parameters.E.low``) and what was
 expected, in one :class:`ProjectError`; nothing here reads other files or
 imports the model (see :mod:`edmf_rs.project_inputs`).

@@ -90,26 +90,34 @@ class Evaluator:
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         theta = np.asarray(theta, dtype=np.float64)
         first, n = self.offset, theta.shape[0]
-        stored = self.store.read(first, n) if self.store is not None else None
-        if stored is not None and np.array_equal(stored.parameters, theta):
-            self.reused_evaluations += n
-            for i in np.flatnonzero(stored.failed):
-                self._count(Failure(first + int(i), tuple(theta[i]), stored.reason[i], stored.stderr[i],
-                                    stored.work[i]))
-            self.offset += n
-            return stored.predictions
-        if stored is not None:
+        # The rows the store holds (a prefix of the batch: it holds instances 0..covered-1) are reused.
+        k = min(max(self.store.covered() - first, 0), n) if self.store is not None else 0
+        parts = [self._reuse(first, theta[:k])] if k else []
+        if k < n:
+            parts.append(self._evaluate(first + k, theta[k:]))
+        self.offset += n
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    def _reuse(self, first: int, theta: np.ndarray) -> np.ndarray:
+        n = theta.shape[0]
+        stored = self.store.read(first, n)
+        if stored is None or not np.array_equal(stored.parameters, theta):
             raise SimulationError(f"the prediction store {self.store.folder} holds other parameters for instances "
                                   f"{first}..{first + n - 1} than this run's sampling; remove that folder")
-        if self.command is None:
-            out = self.pool(theta, first) if self.pool is not None else np.asarray(
-                self.function(theta, **self.options), dtype=np.float64)
-            self.model_evaluations += n
-            if self.store is not None and out.shape == (n, len(self.sensors)):
-                self.store.append(first, theta, out, np.zeros(n, bool), [""] * n, [""] * n, [""] * n)
-        else:
-            out = self._run_commands(first, theta)
-        self.offset += n
+        self.reused_evaluations += n
+        for i in np.flatnonzero(stored.failed):
+            self._count(Failure(first + int(i), tuple(theta[i]), stored.reason[i], stored.stderr[i], stored.work[i]))
+        return stored.predictions
+
+    def _evaluate(self, first: int, theta: np.ndarray) -> np.ndarray:
+        n = theta.shape[0]
+        if self.command is not None:
+            return self._run_commands(first, theta)
+        out = self.pool(theta, first) if self.pool is not None else np.asarray(
+            self.function(theta, **self.options), dtype=np.float64)
+        self.model_evaluations += n
+        if self.store is not None and out.shape == (n, len(self.sensors)):
+            self.store.append(first, theta, out, np.zeros(n, bool), [""] * n, [""] * n, [""] * n)
         return out
 
     def _run_commands(self, first: int, theta: np.ndarray) -> np.ndarray:
@@ -139,7 +147,7 @@ class Evaluator:
                         self._count(result)
                     else:
                         out[i] = result
-                    why = self.policy.check(self.offset + i + 1, self._first_failed, len(self.failures),
+                    why = self.policy.check(first + i + 1, self._first_failed, len(self.failures),
                                             self.n_planned)
                     if why is not None:
                         flush(i + 1)
