@@ -98,6 +98,13 @@ class CommandModel:
             check_placeholders(text, self.parameters, str(file))
             self.templates[name] = text
         self.parser = parsers.resolve(spec.parser, spec.output, spec.path)
+        self._cleaner = None  # removes successful work folders off the runs' critical path
+
+    def wait_for_cleanup(self) -> None:
+        """Returns once every successful run's work folder is removed."""
+        if self._cleaner is not None:
+            self._cleaner.shutdown(wait=True)
+            self._cleaner = None
 
     def fingerprint(self) -> dict:
         """What decides the predictions: command, template contents, output, parser (and its module's source)."""
@@ -133,7 +140,11 @@ class CommandModel:
             reason = f"preparing the work folder failed: {exc}"
         if reason is None:
             if not self.spec.keep_work:
-                shutil.rmtree(work, ignore_errors=True)
+                if self._cleaner is None:
+                    from concurrent.futures import ThreadPoolExecutor
+
+                    self._cleaner = ThreadPoolExecutor(1, thread_name_prefix="edmf-rs-cleanup")
+                self._cleaner.submit(shutil.rmtree, work, ignore_errors=True)
             return result
         return Failure(index, params, f"{reason} (command: {' '.join(command)})", _tail(work / "stderr.txt"),
                        str(work))

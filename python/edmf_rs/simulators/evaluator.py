@@ -184,6 +184,7 @@ class Evaluator:
         if self.pool is not None:
             self.pool.close()
         if self.command is not None:
+            self.command.wait_for_cleanup()
             self._write_failures()
         if self._temp is not None and not any(self._temp.iterdir()):
             shutil.rmtree(self._temp, ignore_errors=True)
