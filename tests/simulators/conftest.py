@@ -24,6 +24,9 @@ SOLVER = textwrap.dedent("""
         print("step 7: stiffness matrix singular", file=sys.stderr)
         print("solver diverged", file=sys.stderr)
         sys.exit(3)
+    if mode == "sleep_high_a" and a > 1.5:
+        open("pid", "w").write(str(os.getpid()))
+        time.sleep(60)
     if mode.startswith("sleep="):
         time.sleep(float(mode[6:]))
     if mode == "segv":

@@ -17,6 +17,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,13 +68,14 @@ class CommandModel:
     --------
     >>> import sys, tempfile, pathlib
     >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (d / "deck.txt").write_text("{a}")
-    >>> script = "import pathlib; a = float(pathlib.Path('deck.txt').read_text()); print('sensor,value'); print(f'S,{2*a!r}')"
-    >>> spec = CommandSpec((sys.executable, "-c", script + " ", ), files=("deck.txt",), output="stdout.txt", parser=None)
-    >>> CommandModel(spec, ("a",), ("S",))
+    >>> _ = (d / "deck.txt").write_text("sensor,value\\nS,{a}\\n")
+    >>> model = CommandModel(CommandSpec(("cp", "deck.txt", "results.csv"), ("deck.txt",), path=d), ("a",), ("S",))
+    >>> model.run(0, [0.1], d)
+    [0.1]
+    >>> CommandModel(CommandSpec(("cp", "{b}", "x"), path=d), ("a",), ("S",))
     Traceback (most recent call last):
     ...
-    ValueError: no built-in parser for 'stdout.txt' (only .csv with sensor,value and .json {sensor: value}); give parser = 'module:function'
+    edmf_rs.simulators.template.TemplateError: command[1] ('{b}'): placeholder {b} names no parameter (the parameters are: a)
     """
 
     def __init__(self, spec: CommandSpec, parameters, sensors):
@@ -99,6 +101,15 @@ class CommandModel:
             self.templates[name] = text
         self.parser = parsers.resolve(spec.parser, spec.output, spec.path)
         self._cleaner = None  # removes successful work folders off the runs' critical path
+        self._running: set[subprocess.Popen] = set()
+        self._lock = threading.Lock()
+
+    def kill_running(self) -> None:
+        """Kills the runs in progress (their instances fail; used when the run stops)."""
+        with self._lock:
+            running = list(self._running)
+        for proc in running:
+            _kill_group(proc)
 
     def wait_for_cleanup(self) -> None:
         """Returns once every successful run's work folder is removed."""
@@ -158,6 +169,8 @@ class CommandModel:
                                         start_new_session=True)
             except OSError as exc:
                 return f"could not start the command: {exc}"
+            with self._lock:
+                self._running.add(proc)
             try:
                 code = proc.wait(timeout=self.spec.timeout)
             except subprocess.TimeoutExpired:
@@ -166,6 +179,9 @@ class CommandModel:
             except BaseException:  # Ctrl-C: do not leave the solver running
                 _kill_group(proc)
                 raise
+            finally:
+                with self._lock:
+                    self._running.discard(proc)
         if code < 0:
             try:
                 name = signal.Signals(-code).name

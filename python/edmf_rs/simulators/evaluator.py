@@ -139,8 +139,10 @@ class Evaluator:
 
         with ThreadPoolExecutor(self.workers, thread_name_prefix="edmf-rs-run") as pool:
             results = ordered(pool, self.command.run, ((first + i, theta[i], self.work_root) for i in range(n)))
+            done = 0
             try:
                 for i, result in enumerate(results):
+                    done = i + 1
                     self.model_evaluations += 1
                     if isinstance(result, Failure):
                         failed[i], reason[i], stderr[i], work[i] = True, result.reason, result.stderr, result.work
@@ -154,6 +156,11 @@ class Evaluator:
                         raise SimulationError(self._stop_message(why))
                     if time.monotonic() - last > FLUSH_SECONDS:
                         flush(i + 1)
+            except BaseException:  # a stop, Ctrl-C: keep what finished, do not wait for long runs
+                results.close()
+                self.command.kill_running()
+                flush(done)
+                raise
             finally:
                 results.close()  # cancels the runs not started (after Ctrl-C or a stop)
         flush(n)
