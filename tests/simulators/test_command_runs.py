@@ -136,3 +136,18 @@ def test_template_placeholder_naming_no_parameter(folder):
     (folder / "deck.txt").write_text("a = {a}\nb = {b}\nc = {K_rot}\n")
     with pytest.raises(ProjectError, match=r"deck.txt: placeholder \{K_rot\} names no parameter \(the parameters are: a, b\)"):
         Project.from_toml(write_project(folder, command_model()))
+
+
+def test_a_relative_program_is_found_in_the_project_folder(folder, tmp_path):
+    script = folder / "run.sh"
+    script.write_text(f"#!/bin/sh\nexec {sys.executable} {folder / 'solver.py'} ok csv\n")
+    script.chmod(0o755)
+    model = 'command = ["./run.sh"]\nfiles = ["deck.txt"]'
+    assert run(write_project(folder, model, n=8), tmp_path / "out") == 0
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["failed_instances"] == 0
+
+
+def test_a_binary_template_is_refused(folder):
+    (folder / "deck.txt").write_bytes(b"\xff\xfe\x00binary")
+    with pytest.raises(ProjectError, match="deck.txt' is not UTF-8 text"):
+        Project.from_toml(write_project(folder, command_model()))

@@ -369,8 +369,6 @@ def _command(t: Table, base: Path) -> CommandSpec:
                         "and .json {sensor: value})")
     timeout = t.get("timeout", "positive", None, what="seconds per run, a positive number")
     keep = t.get("keep_work", "bool", False)
-    if command[0].startswith("./") or command[0].startswith("../"):
-        command = [str((base / command[0]).resolve()), *command[1:]]
     return CommandSpec(tuple(command), tuple(files), file, parser, base / t.get("path", "str", "."), timeout,
                        keep)
 

@@ -85,6 +85,8 @@ class CommandModel:
         for i, arg in enumerate(spec.command):
             check_placeholders(arg, self.parameters, f"command[{i}] ({arg!r})")
         program = spec.command[0]
+        if os.sep in program and not os.path.isabs(program):  # relative to the project file's folder
+            program = str((spec.path / program).resolve())
         found = shutil.which(program) if os.sep not in program else (program if os.access(program, os.X_OK) else None)
         if found is None:
             raise ValueError(f"command: program '{program}' not found (looked on PATH)"
@@ -97,6 +99,8 @@ class CommandModel:
                 text = file.read_text("utf-8")
             except OSError as exc:
                 raise ValueError(f"files: cannot read template '{file}': {exc.strerror or exc}") from None
+            except UnicodeDecodeError:
+                raise ValueError(f"files: template '{file}' is not UTF-8 text; expected a text input deck") from None
             check_placeholders(text, self.parameters, str(file))
             self.templates[name] = text
         self.parser = parsers.resolve(spec.parser, spec.output, spec.path)
