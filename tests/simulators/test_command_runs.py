@@ -78,6 +78,8 @@ def test_some_runs_fail_they_are_data_not_candidates(folder, tmp_path):
         assert (tmp_path / "out" / "work").resolve() in __import__("pathlib").Path(work).resolve().parents
         assert "stiffness matrix singular" in open(f"{work}/stderr.txt").read()
     assert "Failed model runs" in (tmp_path / "out" / "report.html").read_text()
+    thresholds = pd.read_csv(tmp_path / "out" / "thresholds.csv")
+    assert (thresholds["falsified"] == 0).all()  # failed instances are not counted as falsified
 
 
 @pytest.mark.parametrize("mode, reason", [

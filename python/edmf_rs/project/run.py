@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -164,6 +164,10 @@ class Project:
         result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
                                progress=progress, nan="falsify" if self.command else self.model.nan,
                                on_batch=on_batch)
+        if self.command is not None and result.n_invalid and result.per_sensor_falsified is not None:
+            # A failed run's row is all NaN, which the falsification counts against every sensor;
+            # failed instances are neither candidates nor falsified.
+            result = replace(result, per_sensor_falsified=result.per_sensor_falsified - result.n_invalid)
         candidates = pd.DataFrame(
             np.hstack([result.candidate_parameters, result.candidate_predictions]),
             columns=[*self.parameter_names, *self.sensor_names],
