@@ -5,6 +5,8 @@
    fork/exec, parse, clean-up (target < 10 ms), beside a bare fork/exec of `cp`.
 3. `edmf-rs run` twice, the second after changing one uncertainty source: model
    evaluations (target 0) and time against the first run (target < 10 %).
+4. A Python model that wraps an FE program (the OpenSeesPy girder, ~3 ms per
+   instance): 2 spawned worker processes against 1, batches of 256.
 
 Run: python benches/simulators.py [--n 40] > benches/results-simulators.txt
 """
@@ -127,6 +129,27 @@ def rerun(n: int, tmp: Path) -> None:
           f"of the first run's time (target: 0 evaluations, < 10 %)")
 
 
+def python_pool(n: int) -> None:
+    from edmf_rs.examples import girder_opensees
+
+    rng = np.random.default_rng(2)
+    theta = np.column_stack([rng.uniform(20e3, 50e3, n), 10 ** rng.uniform(10, 14, n), 10 ** rng.uniform(3, 7, n)])
+    times = {}
+    for workers in (1, 2):
+        ev = Evaluator(("E", "K_rot", "k_h"), tuple(f"s{i}" for i in range(10)), n,
+                       function=girder_opensees.predict, ref="edmf_rs.examples.girder_opensees:predict",
+                       path=".", workers=workers)
+        ev(theta[:2])  # start the workers (spawn, imports) outside the timing
+        start = time.perf_counter()
+        parts = [ev(theta[i:i + 256]) for i in range(0, n, 256)]
+        times[workers] = time.perf_counter() - start
+        ev.close()
+        assert np.concatenate(parts).shape == (n, 10)
+    print(f"[4] OpenSeesPy girder as a Python function, {n} instances in batches of 256: 1 process "
+          f"{times[1]:.2f} s ({times[1] / n * 1e3:.2f} ms/instance), 2 spawned processes {times[2]:.2f} s; "
+          f"speed-up {times[1] / times[2]:.2f}x")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=40, help="runs per measurement (default: %(default)s)")
@@ -138,6 +161,7 @@ def main() -> None:
         workers_ratio(args.n, tmp)
         overhead(5 * args.n, tmp)
         rerun(2 * args.n, tmp)
+    python_pool(1024)
 
 
 if __name__ == "__main__":
