@@ -16,6 +16,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
+from .simulators.failures import SimulationError
 
 EXAMPLES = Path(__file__).resolve().parent / "examples" / "projects"
 
@@ -75,6 +76,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--threads", type=int, default=None, metavar="N",
                      help="threads of the Rust core (default: all cores)")
     run.add_argument("--no-progress", action="store_true", help="hide the progress line")
+    run.add_argument("--workers", type=int, default=None, metavar="N",
+                     help="parallel model runs (default: [model] workers in the project file, else 1)")
 
     des = sub.add_parser("design", parents=[common], help="choose sensor locations before the test: "
                          "joint-entropy placement and expected identifiability (a project with [design])")
@@ -105,15 +108,17 @@ def main(argv: list[str] | None = None) -> int:
             project, out = EXAMPLES / f"{args.example}.toml", args.out or args.example
         else:
             project, out = args.project, args.out
+        if args.workers is not None and args.workers < 1:
+            raise ValueError(f"--workers: expected a number of parallel runs >= 1, got {args.workers}")
         return run_cli(project, out=out, progress=not args.no_progress, dry_run=args.dry_run, yes=args.yes,
-                       force=args.force, threads=args.threads)
+                       force=args.force, threads=args.threads, workers=args.workers)
     except KeyboardInterrupt:
         print("edmf-rs: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:
         from .project.errors import UserCodeError
 
-        if isinstance(exc, UserCodeError):
+        if isinstance(exc, (UserCodeError, SimulationError)):  # the model's code or runs failed
             status = 1
         elif isinstance(exc, (ValueError, TypeError, OSError)):
             status = 2

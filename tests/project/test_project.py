@@ -311,7 +311,8 @@ def test_precomputed_columns_must_match_the_sensors(tmp_path):
 # --- the command line on the shipped examples ----------------------------------------------------------
 
 SUMMARY_KEYS = {"schema", "project", "instances", "candidates", "invalid", "model_class_falsified", "identification",
-                "sampling", "parameters", "thresholds", "excluded_sensors", "diagnostics", "prognosis", "elapsed_seconds"}
+                "sampling", "parameters", "thresholds", "excluded_sensors", "diagnostics", "prognosis", "elapsed_seconds",
+                "model_evaluations", "reused_evaluations", "failed_instances"}
 OUTPUTS = {"summary.json", "candidates.parquet", "thresholds.csv", "report.html", "leave_one_out.png",
            "residuals.png", "scatter_matrix.png", "parallel_coordinates.png", "sensitivity.png"}
 

@@ -66,8 +66,9 @@ def check_out(out: Path, project: Project, force: bool) -> None:
 
 
 def run_cli(project_path: str | Path, out: str | Path | None = None, progress: bool = True, *,
-            dry_run: bool = False, yes: bool = False, force: bool = False, threads: int | None = None) -> int:
-    """``edmf-rs run PROJECT.toml [--out DIR]``: the whole run; returns the exit status."""
+            dry_run: bool = False, yes: bool = False, force: bool = False, threads: int | None = None,
+            workers: int | None = None) -> int:
+    """``edmf-rs run PROJECT.toml [--out DIR] [--workers N]``: the whole run; returns the exit status."""
     started = time.perf_counter()
     if threads is not None:
         from .._core import set_num_threads
@@ -79,15 +80,18 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     out_dir = Path(out) if out is not None else default_out(project_path)
     check_out(out_dir, project, force)
     check_instances(project.n_instances, yes)
-    plan = project.check()
+    plan = project.check(workers)
     if dry_run:
         print(plan.describe())
         print(f"outputs: {out_dir}/ (dry run: nothing evaluated or written)")
         return 0
     print(plan.describe().splitlines()[0], file=sys.stderr)
-    identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS)
+    # The folder is this project's from now on (its store and work folders are written during the
+    # run), so a killed run's folder is recognised as an earlier run of the same project.
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
+    identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS, out=out_dir,
+                                 workers=workers)
     identification.write(out_dir)
     print(identification.summary())
     print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "

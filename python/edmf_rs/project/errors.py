@@ -66,6 +66,8 @@ def call_user_code(call: Callable, theta: np.ndarray, *, what: str, where: str, 
     try:
         return call(read_only_copy(theta))
     except (Exception, SystemExit) as exc:
+        if getattr(exc, "names_its_instances", False):
+            raise  # e.g. stopped external runs: already named, and re-running them would run the solver again
         if isinstance(exc, SystemExit):
             raised = f"called sys.exit({exc.code!r})"
         else:

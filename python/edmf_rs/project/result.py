@@ -114,6 +114,8 @@ class Identification:
     elapsed: float
     borderline: int = 0  # instances whose verdict changes within +-2 SE of Monte Carlo bounds
     sensor_mapping: SensorMapping | None = None
+    #: model_evaluations, reused_evaluations, failed_instances, prediction_store (None: no evaluator used)
+    evaluation: dict | None = None
 
     @property
     def model_class_falsified(self) -> bool:
@@ -284,8 +286,15 @@ class Identification:
         if self.thresholds.monte_carlo:
             lines.append(f"borderline instances (verdict changes within 2 Monte Carlo SE of the bounds): "
                          f"{self.borderline:,}")
-        if r.n_invalid:
+        ev = self.evaluation or {}
+        if ev.get("failed_instances"):
+            lines.append(f"failed model runs (neither candidates nor falsified, see failures.csv): "
+                         f"{ev['failed_instances']:,}")
+        if r.n_invalid and r.n_invalid != ev.get("failed_instances"):
             lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
+        if ev:
+            lines.append(f"model evaluations: {ev['model_evaluations']:,}, reused from the prediction store: "
+                         f"{ev['reused_evaluations']:,}")
         if self.sensor_mapping is not None:
             lines.append(f"model outputs matched to the sensors {self.mapping_text()}")
         lines += [f"- {text}" for text in self.findings()]
@@ -316,6 +325,9 @@ class Identification:
             "project": {"name": p.name, "file": p.file.name, "description": p.description},
             "instances": r.n_instances, "candidates": r.n_candidates, "invalid": r.n_invalid,
             "model_class_falsified": r.model_class_falsified,
+            "model_evaluations": (self.evaluation or {}).get("model_evaluations"),
+            "reused_evaluations": (self.evaluation or {}).get("reused_evaluations"),
+            "failed_instances": (self.evaluation or {}).get("failed_instances", 0),
             "identification": {
                 "phi": p.phi, "correction": p.correction, "per_sensor_probability": t.probability,
                 "combined_uncertainty": "exact" if self.combined.exact else "monte_carlo",

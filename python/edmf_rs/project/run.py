@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -23,9 +23,11 @@ from ..engine.model import falsify_model
 from ..engine.sampling import Parameter, Sampling
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
+from ..simulators import CommandModel, Evaluator
 from .diagnostics import SensitivityTracker, leave_one_out
 from .errors import call_user_code
 from .evaluation import CheckedModel
+from .external import command_model, make_evaluator
 from .inputs import check_sensors, import_function
 from .measurements import read_measurements
 from .plan import Plan, check_estimate
@@ -104,6 +106,7 @@ class Project:
     kept: tuple[int, ...]
     prognosis: tuple[tuple[PrognosisSpec, Callable], ...]
     inputs: tuple[Path, ...] = ()  # the files it reads (never overwritten by an output)
+    command: CommandModel | None = None  # [model] command: an external program
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Project:
@@ -156,8 +159,10 @@ class Project:
                                "name for that parameter or sensor")
         sensors = tuple(all_sensors[i] for i in kept)
         _check_model_sensors(spec.model.sensors, sensors, label)
-        model_function = None
-        if spec.model.function is not None:
+        model_function = command = None
+        if spec.model.command is not None:
+            command = command_model(spec, all_sensors, label)
+        elif spec.model.function is not None:
             model_function = import_function(spec.model.function, spec.model.path, label, "model.function")
         else:
             check_precomputed(spec.model, spec.parameters, all_sensors, sensors, label)
@@ -170,7 +175,7 @@ class Project:
             excluded=tuple(s for i, s in enumerate(all_sensors) if i not in kept),
             uncertainty=resolve_sources(spec.uncertainty, all_sensors, kept, label),
             model=spec.model, model_function=model_function, n_model_columns=len(all_sensors), kept=kept,
-            prognosis=prognosis,
+            prognosis=prognosis, command=command,
             inputs=tuple(f for f in (spec.file, spec.measurements_file, spec.model.predictions, spec.model.parameters)
                          if f is not None),
         )
@@ -240,9 +245,15 @@ class Project:
             return self.sampling.n
         return count_rows(self.model.predictions, "model.predictions")
 
-    def check(self) -> Plan:
+    def check(self, workers: int | None = None) -> Plan:
         """Calls the model and every prognosis function on two instances and
         returns the run's plan; evaluates nothing else (``edmf-rs run --dry-run``).
+
+        Parameters
+        ----------
+        workers : int, optional
+            Parallel model runs (default: ``[model] workers``); with more than
+            one, the model is left to the worker processes.
 
         Returns
         -------
@@ -266,11 +277,18 @@ class Project:
         (101, 10)
         """
         seconds = None
-        if self.model_function is not None:
+        workers = self.model.workers if workers is None else workers
+        if self.model_function is not None and workers > 1:
+            # The model runs only in the worker processes: one that crashes its process (a segfaulting
+            # solver, the OOM killer) must not take edmf-rs down. Its first batch is the check.
+            theta = self.sampling.head(2)
+        elif self.model_function is not None:
             theta = self.sampling.head(2)
             model = self._checked_model()
             model(theta)
             seconds = model.seconds / max(model.instances, 1)
+        elif self.command is not None:  # checked before it runs (program, templates, parser); each run costs
+            theta = self.sampling.head(2)
         else:
             theta = first_parameters(self, 2)
         for spec, func in self.prognosis:
@@ -279,11 +297,13 @@ class Project:
             f"precomputed in {self.model.predictions.name}"
         return Plan(project=str(self.file), n_instances=self.n_instances, n_sensors=len(self.sensors),
                     n_parameters=len(self.parameters), instances=instances,
-                    model=self.model.function or f"predictions {self.model.predictions.name}",
+                    model=self.model.function or (" ".join(self.command.spec.command) if self.command else
+                                                  f"predictions {self.model.predictions.name}"),
                     batch_size=self.model.batch_size, prognoses=tuple(spec.name for spec, _ in self.prognosis),
                     seconds_per_instance=seconds)
 
-    def run(self, *, progress: bool | Progress = True, max_seconds: float | None = None) -> Identification:
+    def run(self, *, progress: bool | Progress = True, max_seconds: float | None = None,
+            out: str | Path | None = None, workers: int | None = None) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass.
 
         Samples the parameters (or, with ``method = "adaptive"``, runs EDMF in
@@ -299,6 +319,12 @@ class Project:
         max_seconds : float, optional
             Stop after the first batch when that batch's time, scaled to every
             instance, is above it (:class:`~edmf_rs.project.plan.RunTooLarge`).
+        out : path, optional
+            The output folder, where the evaluated instances are stored as they
+            arrive (``out/store``, reused by the next run with the same model
+            and sampling) with failed runs in ``out/failures.csv``.
+        workers : int, optional
+            Parallel model runs (default: ``[model] workers``).
 
         Returns
         -------
@@ -330,11 +356,19 @@ class Project:
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)
-        model, parameters, n_instances = self._instances()
+        evaluator = make_evaluator(self, out, workers)
+        try:
+            return self._run(start, combined, thresholds, evaluator, progress, max_seconds)
+        finally:
+            if evaluator is not None:
+                evaluator.close()
+
+    def _run(self, start, combined, thresholds, evaluator, progress, max_seconds) -> Identification:
+        model, parameters, n_instances = self._instances(evaluator)
         tracker = SensitivityTracker(thresholds, combined, self.measured)
         sample = PlotSample(n_instances)
         borderline = BorderlineCounter(thresholds, self.measured)
-        first_batch = [max_seconds is not None and self.model_function is not None]
+        first_batch = [max_seconds is not None and (self.model_function is not None or self.command is not None)]
         began = time.perf_counter()
 
         def on_batch(offset, theta, predictions):
@@ -352,10 +386,15 @@ class Project:
         reporter = progress if isinstance(progress, Progress) else Progress(n_instances) if progress else None
         try:
             result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
-                                   progress=False, nan=self.model.nan, on_batch=on_batch)
+                                   progress=False, nan="falsify" if self.command else self.model.nan,
+                                   on_batch=on_batch)
         finally:
             if reporter is not None:
                 reporter.close()
+        if self.command is not None and result.n_invalid and result.per_sensor_falsified is not None:
+            # A failed run's row is all NaN, which the falsification counts against every sensor;
+            # failed instances are neither candidates nor falsified.
+            result = replace(result, per_sensor_falsified=result.per_sensor_falsified - result.n_invalid)
         mapping = getattr(model, "mapping", None)
         candidates = pd.DataFrame(
             np.hstack([result.candidate_parameters, result.candidate_predictions]),
@@ -371,20 +410,27 @@ class Project:
             leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
             candidates=candidates, prognoses=prognoses, sample=sample.finish(result.candidate_mask),
             elapsed=time.perf_counter() - start, borderline=borderline.count, sensor_mapping=mapping,
+            evaluation=evaluator.stats() if evaluator else None,
         )
 
-    def _instances(self):
+    def _instances(self, evaluator: Evaluator | None = None):
         """(model callable, parameters, N) for falsify_model."""
-        if self.model_function is not None:
-            return self._checked_model(), self.sampling.batches(self.model.batch_size), self.sampling.n
+        if self.model_function is not None or evaluator is not None:
+            return self._checked_model(evaluator), self.sampling.batches(self.model.batch_size), self.sampling.n
         return precomputed_instances(self)
 
-    def _checked_model(self) -> CheckedModel:
+    def _checked_model(self, evaluator: Evaluator | None = None) -> CheckedModel:
+        """The model (or the evaluator of external runs) with its outputs matched to the sensors by name."""
         positional, source = self.positional_sensors
-        return CheckedModel(self.model_function, self.model.options, sensors=self.sensor_names,
+        if evaluator is not None:
+            function, options = evaluator, {}
+        else:
+            function, options = self.model_function, self.model.options
+        what = f"command = {list(self.command.spec.command)}" if self.command else f"function = '{self.model.function}'"
+        return CheckedModel(function, options, sensors=self.sensor_names,
                             positional=positional, positional_source=source,
-                            parameter_names=self.parameter_names, nan=self.model.nan,
-                            where=f"{self.file}: model.function = '{self.model.function}'")
+                            parameter_names=self.parameter_names,
+                            nan="falsify" if self.command else self.model.nan, where=f"{self.file}: model.{what}")
 
     def _describe(self, row) -> str:
         return ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, row))

@@ -1,5 +1,8 @@
 """The project file (TOML): reading and checking every table.
 
+Longer than 450 lines: one reader per table of the file, kept together so the
+format reads top to bottom as the project file does.
+
 Each check names the file, the dotted key (``parameters.E.low``) and what was
 expected, in one :class:`ProjectError`; nothing here reads other files or
 imports the model (see :mod:`edmf_rs.project.inputs`).
@@ -16,6 +19,7 @@ from pathlib import Path
 
 from ..engine.sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
 from ..engine.thresholds import CORRECTIONS
+from ..simulators.command import CommandSpec
 from .table import ProjectError, Table
 
 __all__ = ["ModelSpec", "PrognosisSpec", "ProjectError", "ProjectSpec", "Sensor", "UncertaintySpec", "read_spec"]
@@ -51,6 +55,11 @@ class ModelSpec:
     nan: str = "raise"
     batch_size: int = 10_000
     sensors: tuple[str, ...] | None = None  # the sensor of each column of a bare array, in order
+    command: CommandSpec | None = None   # an external program (see edmf_rs.simulators)
+    workers: int = 1
+    store: bool = True                   # keep every evaluated instance in <out>/store
+    max_failure_rate: float | None = None
+    stop_after_failures: int = 5          # stop when the first N instances all fail
 
 
 @dataclass(frozen=True)
@@ -228,9 +237,14 @@ def _function_ref(t: Table, key: str) -> str:
     return ref
 
 
+COMMAND_KEYS = ("command", "files", "output", "timeout", "keep_work")
+RUN_KEYS = ("workers", "store", "max_failure_rate", "stop_after_failures")
+
+
 def _model(root: Table, base: Path) -> ModelSpec:
     t = root.table("model")
-    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size", "sensors"))
+    t.check_keys(("function", "path", "options", "predictions", "parameters", "nan", "batch_size", "sensors",
+                  *COMMAND_KEYS, *RUN_KEYS))
     sensors = None
     if "sensors" in t.data:
         sensors = t.get("sensors", "list", what="a list of sensor names, one per column the model returns")
@@ -244,19 +258,35 @@ def _model(root: Table, base: Path) -> ModelSpec:
     batch_size = t.get("batch_size", "int", 10_000, what="a positive integer")
     if batch_size < 1:
         raise t.error("batch_size", "a positive integer", batch_size)
-    if "function" in t.data and "predictions" in t.data:
-        raise t.error("predictions", "either function or predictions, not both", t.data["predictions"])
-    if "function" not in t.data and "predictions" not in t.data:
-        raise t.error("function", "function = 'module:function', or predictions = 'file' with parameters = 'file'")
+    kinds = [k for k in ("function", "command", "predictions") if k in t.data]
+    if len(kinds) > 1:
+        raise t.error(kinds[1], f"one of function, command or predictions, not both {kinds[0]} and {kinds[1]}",
+                      t.data[kinds[1]])
+    if not kinds:
+        raise t.error("function", "function = 'module:function', command = [\"program\", ...], or "
+                      "predictions = 'file' with parameters = 'file'")
+    run = _run_options(t)
+    if "command" not in t.data:
+        for key in COMMAND_KEYS:
+            if key in t.data:
+                raise t.error(key, f"no {key} without command = [...]", t.data[key])
+    if "command" in t.data:
+        for key in ("parameters",):
+            if key in t.data:
+                raise t.error(key, "no parameters file with command (the [sampling] gives them)", t.data[key])
+        return ModelSpec(command=_command(t, base), path=base / t.get("path", "str", "."),
+                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size, sensors=sensors,
+                         **run)
     if "function" in t.data:
         if "parameters" in t.data:
             raise t.error("parameters", "no parameters file with function (the [sampling] gives them)",
                           t.data["parameters"])
         return ModelSpec(function=_function_ref(t, "function"), path=base / t.get("path", "str", "."),
-                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size, sensors=sensors)
-    for key in ("path", "options"):
+                         options=t.get("options", "table", {}), nan=nan, batch_size=batch_size, sensors=sensors,
+                         **run)
+    for key in ("path", "options", *RUN_KEYS):
         if key in t.data:
-            raise t.error(key, f"no {key} with predictions (only with function)", t.data[key])
+            raise t.error(key, f"no {key} with predictions (only with function or command)", t.data[key])
     predictions = base / t.get("predictions", "str", what="a .npy, .csv or .parquet file")
     parameters = base / t.get("parameters", "str", what="the parameters of the precomputed instances "
                                                         "(a .npy, .csv or .parquet file)")
@@ -268,6 +298,48 @@ def _model(root: Table, base: Path) -> ModelSpec:
                       "sensors gives the columns of a .npy array)", list(sensors))
     return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size,
                      sensors=sensors)
+
+
+def _run_options(t: Table) -> dict:
+    """workers, store and the failure limits of [model]."""
+    workers = t.get("workers", "int", 1, what="a number of parallel runs >= 1")
+    if workers < 1:
+        raise t.error("workers", "a number of parallel runs >= 1", workers)
+    store = t.get("store", "bool", True)
+    rate = t.get("max_failure_rate", "number", None, what="a fraction of failed instances in [0, 1]")
+    if rate is not None and not 0.0 <= rate <= 1.0:
+        raise t.error("max_failure_rate", "a fraction of failed instances in [0, 1]", rate)
+    first = t.get("stop_after_failures", "int", 5, what="a number of instances >= 0 (0: never stop early)")
+    if first < 0:
+        raise t.error("stop_after_failures", "a number of instances >= 0 (0: never stop early)", first)
+    return {"workers": workers, "store": store, "max_failure_rate": rate, "stop_after_failures": first}
+
+
+def _command(t: Table, base: Path) -> CommandSpec:
+    """[model] command, files, output, timeout, keep_work (an external program)."""
+    command = t.data["command"]
+    if isinstance(command, str):
+        command = command.split()
+    if not isinstance(command, list) or not command or not all(isinstance(a, str) for a in command):
+        raise t.error("command", "a list of strings: the program and its arguments, e.g. [\"ccx\", \"-i\", "
+                      "\"girder\"]", t.data["command"])
+    files = t.get("files", "list", [], what="a list of template file names")
+    if not all(isinstance(f, str) for f in files):
+        raise t.error("files", "a list of template file names", files)
+    output = t.data.get("output", {"file": "results.csv"})
+    if isinstance(output, str):
+        output = {"file": output}
+    out = Table(t.file, t.path("output"), output)
+    out.check_keys(("file", "parser"))
+    file = out.get("file", "str", what="the name of the file the program writes")
+    parser = _function_ref(out, "parser") if "parser" in out.data else None
+    if parser is None and Path(file).suffix.lower() not in (".csv", ".json"):
+        raise out.error("parser", f"'module:function' to read '{file}' (built in: .csv with sensor,value "
+                        "and .json {sensor: value})")
+    timeout = t.get("timeout", "positive", None, what="seconds per run, a positive number")
+    keep = t.get("keep_work", "bool", False)
+    return CommandSpec(tuple(command), tuple(files), file, parser, base / t.get("path", "str", "."), timeout,
+                       keep)
 
 
 def _measurements(root: Table, base: Path):

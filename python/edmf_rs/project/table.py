@@ -68,7 +68,7 @@ class Table:
         value = self.data.get(key, _MISSING)
         expected = what or {
             "number": "a number", "positive": "a positive number", "int": "an integer", "str": "a string",
-            "table": "a table", "list": "a list",
+            "table": "a table", "list": "a list", "bool": "true or false",
             "choice": "one of " + ", ".join(map(repr, choices)),
         }[kind]
         if value is _MISSING:
@@ -83,6 +83,7 @@ class Table:
             "choice": lambda v: v in choices,
             "table": lambda v: isinstance(v, dict),
             "list": lambda v: isinstance(v, list),
+            "bool": lambda v: isinstance(v, bool),
         }[kind](value)
         if not ok:
             raise self.error(key, expected, value)

@@ -67,6 +67,10 @@ def render(ident, figures: dict[str, bytes]) -> str:
 
 
 def _verdict(ident) -> str:
+    return _verdict_text(ident) + _evaluation(ident)
+
+
+def _verdict_text(ident) -> str:
     r = ident.falsification
     if r.model_class_falsified:
         return (f"<div class='verdict bad'><b>Model class falsified</b>: all {r.n_instances:,} model instances "
@@ -74,6 +78,19 @@ def _verdict(ident) -> str:
     share = 100.0 * r.n_candidates / r.n_instances
     return (f"<div class='verdict ok'><b>{r.n_candidates:,} candidate models</b> of {r.n_instances:,} "
             f"instances ({share:.3g} %).</div>")
+
+
+def _evaluation(ident) -> str:
+    """Model runs: evaluated now, reused from the prediction store, failed (neither candidates nor falsified)."""
+    ev = ident.evaluation
+    if not ev:
+        return ""
+    text = (f"<p>Model evaluations: {ev['model_evaluations']:,}; reused from the prediction store: "
+            f"{ev['reused_evaluations']:,}.")
+    if ev["failed_instances"]:
+        text += (f" <b>Failed model runs: {ev['failed_instances']:,}</b> (neither candidates nor falsified; "
+                 "reasons, stderr and work folders in failures.csv).")
+    return text + "</p>"
 
 
 def _table(header: list[str], rows: list[list], left: int = 1, row_class=None) -> str:
@@ -156,7 +173,8 @@ def _settings(ident) -> str:
     sampling = p.sampling.describe() if p.sampling else f"precomputed instances ({p.model.predictions.name})"
     combined = "exact (every source normal)" if ident.combined.exact else \
         f"Monte Carlo, {p.n_samples:,} samples (seed {p.seed})"
-    model = p.model.function or p.model.predictions.name
+    model = p.model.function or (f"command {' '.join(p.model.command.command)}" if p.model.command
+                                 else p.model.predictions.name)
     rows = [["model", model], ["instances", sampling], ["target probability φ", f"{p.phi:g}"],
             ["correction", f"{p.correction} (per-sensor probability {t.probability:.6f})"],
             ["combined uncertainty", combined], ["guarantee", t.guarantee()],

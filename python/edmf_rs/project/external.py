@@ -1,0 +1,33 @@
+"""The project's hook into :mod:`edmf_rs.simulators`: an external program as the
+model, and the evaluator that stores every evaluated instance, runs models in
+parallel workers and records failed runs (``[model] command``, ``workers``,
+``store``, ``max_failure_rate``)."""
+
+from __future__ import annotations
+
+from ..simulators import CommandModel, Evaluator, FailurePolicy
+from .schema import ProjectError
+
+
+def command_model(spec, all_sensors, label: str) -> CommandModel:
+    """The external program, checked before anything runs (program, templates, placeholders, parser)."""
+    try:
+        return CommandModel(spec.model.command, [p.name for p in spec.parameters], [s.name for s in all_sensors])
+    except ValueError as exc:
+        raise ProjectError(f"{label}: model.{exc}") from None
+
+
+def make_evaluator(project, out, workers) -> Evaluator | None:
+    """The simulators' evaluator (store, parallel runs, external programs), or None when not needed."""
+    m = project.model
+    workers = m.workers if workers is None else workers
+    if m.predictions is not None or (out is None and project.command is None and workers == 1):
+        return None
+    names = [s.name for s in project.all_sensors]
+    sampling = {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
+                "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
+                "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters], "sensors": names}
+    return Evaluator(project.parameter_names, names, project.sampling.n, command=project.command,
+                     function=project.model_function, ref=m.function or "", path=m.path, options=m.options,
+                     workers=workers, out=out, sampling=sampling, store=m.store,
+                     policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate))

@@ -1,0 +1,227 @@
+"""External programs as models: one run per model instance, in its own work folder.
+
+For each instance the templates (``files``) are copied into a fresh, uniquely
+named folder with their ``{NAME}`` placeholders replaced by the instance's
+parameters, the command runs there (stdout and stderr go to files in the
+folder), and the output file is parsed into one prediction per sensor. A
+failed run leaves its folder for inspection; a successful one removes it
+unless ``keep_work``. Runs never raise: a failure is returned as a
+:class:`~edmf_rs.simulators.failures.Failure` (failures are data).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import signal
+import subprocess
+import tempfile
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import parsers
+from .failures import Failure
+from .template import check_placeholders, render
+
+
+@dataclass(frozen=True)
+class CommandSpec:
+    """``[model]`` for an external program, as written in the project file.
+
+    ``command``: program and arguments (placeholders allowed); ``files``:
+    templates, relative to ``path``; ``output``: the file the program writes
+    and its ``parser`` (``module:function``, or None for .csv/.json);
+    ``timeout``: seconds per run (None: no limit).
+    """
+
+    command: tuple[str, ...]
+    files: tuple[str, ...] = ()
+    output: str = "results.csv"
+    parser: str | None = None
+    path: Path = Path(".")
+    timeout: float | None = None
+    keep_work: bool = False
+    options: dict = field(default_factory=dict)
+
+
+class CommandModel:
+    """A checked :class:`CommandSpec`: program found, templates read and their
+    placeholders checked against the parameters, parser imported.
+
+    Parameters
+    ----------
+    spec
+        The command as written.
+    parameters
+        Parameter names, in the order of a parameter row.
+    sensors
+        Sensor names the output must give, in the order of the prediction columns.
+
+    Raises
+    ------
+    ValueError
+        Naming the template and placeholder, the missing program or file, or the parser.
+
+    Examples
+    --------
+    >>> import sys, tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "deck.txt").write_text("sensor,value\\nS,{a}\\n")
+    >>> model = CommandModel(CommandSpec(("cp", "deck.txt", "results.csv"), ("deck.txt",), path=d), ("a",), ("S",))
+    >>> model.run(0, [0.1], d)
+    [0.1]
+    >>> CommandModel(CommandSpec(("cp", "{b}", "x"), path=d), ("a",), ("S",))
+    Traceback (most recent call last):
+    ...
+    edmf_rs.simulators.template.TemplateError: command[1] ('{b}'): placeholder {b} names no parameter (the parameters are: a)
+    """
+
+    def __init__(self, spec: CommandSpec, parameters, sensors):
+        self.spec, self.parameters, self.sensors = spec, tuple(parameters), tuple(sensors)
+        if not spec.command:
+            raise ValueError("command: expected a program and its arguments, got an empty list")
+        for i, arg in enumerate(spec.command):
+            check_placeholders(arg, self.parameters, f"command[{i}] ({arg!r})")
+        program = spec.command[0]
+        if os.sep in program and not os.path.isabs(program):  # relative to the project file's folder
+            program = str((spec.path / program).resolve())
+        found = shutil.which(program) if os.sep not in program else (program if os.access(program, os.X_OK) else None)
+        if found is None:
+            raise ValueError(f"command: program '{program}' not found (looked on PATH)"
+                             if os.sep not in program else f"command: '{program}' is not an executable file")
+        self.program = found
+        self.templates: dict[str, str] = {}
+        for name in spec.files:
+            file = spec.path / name
+            try:
+                text = file.read_text("utf-8")
+            except OSError as exc:
+                raise ValueError(f"files: cannot read template '{file}': {exc.strerror or exc}") from None
+            except UnicodeDecodeError:
+                raise ValueError(f"files: template '{file}' is not UTF-8 text; expected a text input deck") from None
+            check_placeholders(text, self.parameters, str(file))
+            self.templates[name] = text
+        self.parser = parsers.resolve(spec.parser, spec.output, spec.path)
+        self._cleaner = None  # removes successful work folders off the runs' critical path
+        self._running: set[subprocess.Popen] = set()
+        self._lock = threading.Lock()
+
+    def kill_running(self) -> None:
+        """Kills the runs in progress (their instances fail; used when the run stops)."""
+        with self._lock:
+            running = list(self._running)
+        for proc in running:
+            _kill_group(proc)
+
+    def wait_for_cleanup(self) -> None:
+        """Returns once every successful run's work folder is removed."""
+        if self._cleaner is not None:
+            self._cleaner.shutdown(wait=True)
+            self._cleaner = None
+
+    def fingerprint(self) -> dict:
+        """What decides the predictions: command, template contents, output, parser (and its module's source)."""
+        digest = hashlib.sha256()
+        for name, text in sorted(self.templates.items()):
+            digest.update(name.encode() + b"\0" + text.encode() + b"\0")
+        return {"kind": "command", "command": list(self.spec.command), "program": self.program,
+                "templates": digest.hexdigest(), "output": self.spec.output, "parser": self.spec.parser,
+                "parser_source": _source_digest(self.parser) if self.spec.parser else None}
+
+    def run(self, index: int, theta, root: Path) -> list[float] | Failure:
+        """Runs instance ``index`` with parameter row ``theta`` in a new folder under ``root``."""
+        values = dict(zip(self.parameters, (float(v) for v in theta)))
+        params = tuple(values.values())
+        command = [self.program, *(render(a, values) for a in self.spec.command[1:])]
+        work = Path(tempfile.mkdtemp(prefix=f"instance-{index:09d}-", dir=root))
+        try:
+            for name, text in self.templates.items():
+                target = work / name
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_text(render(text, values), "utf-8")
+            reason = self._execute(command, work)
+            if reason is None:
+                output = work / self.spec.output
+                if not output.is_file():
+                    reason = f"output file '{self.spec.output}' missing after the run"
+                else:
+                    try:
+                        result = parsers.predictions(self.parser(output), self.sensors, self.spec.output)
+                    except Exception as exc:  # a parser that raises fails this instance only
+                        reason = f"parsing {self.spec.output} failed: {type(exc).__name__}: {exc}"
+        except OSError as exc:
+            reason = f"preparing the work folder failed: {exc}"
+        if reason is None:
+            if not self.spec.keep_work:
+                if self._cleaner is None:
+                    from concurrent.futures import ThreadPoolExecutor
+
+                    self._cleaner = ThreadPoolExecutor(1, thread_name_prefix="edmf-rs-cleanup")
+                self._cleaner.submit(shutil.rmtree, work, ignore_errors=True)
+            return result
+        return Failure(index, params, f"{reason} (command: {' '.join(command)})", _tail(work / "stderr.txt"),
+                       str(work))
+
+    def _execute(self, command: list[str], work: Path) -> str | None:
+        """Runs the command in ``work``; the reason it failed, or None."""
+        with open(work / "stdout.txt", "wb") as out, open(work / "stderr.txt", "wb") as err:
+            try:
+                # Its own session, so a timeout kills the solver and its children.
+                proc = subprocess.Popen(command, cwd=work, stdout=out, stderr=err, stdin=subprocess.DEVNULL,
+                                        start_new_session=True)
+            except OSError as exc:
+                return f"could not start the command: {exc}"
+            with self._lock:
+                self._running.add(proc)
+            try:
+                code = proc.wait(timeout=self.spec.timeout)
+            except subprocess.TimeoutExpired:
+                _kill_group(proc)
+                return f"timed out after {self.spec.timeout:g} s"
+            except BaseException:  # Ctrl-C: do not leave the solver running
+                _kill_group(proc)
+                raise
+            finally:
+                with self._lock:
+                    self._running.discard(proc)
+        if code < 0:
+            try:
+                name = signal.Signals(-code).name
+            except ValueError:
+                name = str(-code)
+            return f"killed by signal {name}"
+        if code != 0:
+            return f"exit code {code}"
+        return None
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        proc.kill()
+    proc.wait()
+
+
+def _tail(path: Path, lines: int = 20) -> str:
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            fh.seek(max(0, fh.tell() - 4096))
+            return "\n".join(fh.read().decode("utf-8", "replace").splitlines()[-lines:])
+    except OSError:
+        return ""
+
+
+def _source_digest(func) -> str | None:
+    """sha256 of the file that defines ``func`` (its helpers change results too), else of its bytecode."""
+    import inspect
+    import marshal
+
+    try:
+        return hashlib.sha256(Path(inspect.getsourcefile(func)).read_bytes()).hexdigest()
+    except (TypeError, OSError):
+        code = getattr(func, "__code__", None)
+        return hashlib.sha256(marshal.dumps(code)).hexdigest() if code is not None else None

@@ -1,0 +1,197 @@
+"""The model as the falsification sees it: a callable on batches of parameter
+sets that reuses stored instances, evaluates the rest (in parallel), stores
+them as they arrive and turns failed runs into data.
+
+``Evaluator(theta)`` has the call signature of a Python model: an (n, p)
+batch in, (n, n_columns) predictions out, with NaN rows for failed instances
+(so the falsification counts them as invalid: neither candidates nor
+falsified). Batches must arrive in instance order, as ``falsify_model`` sends them.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .command import CommandModel, _source_digest
+from .failures import Failure, FailurePolicy, SimulationError, write_failures
+from .pool import FunctionPool, ordered
+from .store import PredictionStore
+
+#: Seconds between flushes of an external program's results to the store.
+FLUSH_SECONDS = 1.0
+
+
+class Evaluator:
+    """Evaluates model instances batch by batch, with a prediction store.
+
+    Parameters
+    ----------
+    parameters, sensors
+        Names of the parameter columns and of every prediction column (all
+        sensors of the measurements, excluded ones too).
+    n_planned
+        Number of instances the run will ask for (for ``max_failure_rate``).
+    command
+        An external program (:class:`CommandModel`), or None for a Python function.
+    function, ref, path, options
+        The Python model, its ``module:function`` and folder (for worker
+        processes) and its keyword arguments.
+    workers
+        Parallel runs (processes for a function, threads for a command).
+    out
+        The output folder: the store goes to ``out/store``, work folders to
+        ``out/work`` and failures to ``out/failures.csv``. None: no store,
+        work folders in a temporary folder.
+    sampling
+        A description of the sampling (part of the store's key).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile
+    >>> ev = Evaluator(("a",), ("S",), 4, function=lambda t: 2 * t, ref="", path=".",
+    ...                out=tempfile.mkdtemp(), sampling={"n": 4})
+    >>> ev(np.array([[1.0], [2.0]])).ravel().tolist(), ev.model_evaluations
+    ([2.0, 4.0], 2)
+    """
+
+    def __init__(self, parameters, sensors, n_planned: int, *, command: CommandModel | None = None,
+                 function=None, ref: str = "", path=".", options: dict | None = None, workers: int = 1,
+                 out=None, sampling: dict | None = None, store: bool = True, policy: FailurePolicy = FailurePolicy()):
+        self.parameters, self.sensors, self.n_planned = tuple(parameters), tuple(sensors), n_planned
+        self.command, self.function, self.options = command, function, dict(options or {})
+        self.workers, self.policy = workers, policy
+        self.out = Path(out) if out is not None else None
+        self.offset = self.model_evaluations = self.reused_evaluations = 0
+        self.failures: list[Failure] = []
+        self._first_failed = 0
+        if command is not None:
+            model_key = command.fingerprint()
+        else:
+            model_key = {"kind": "function", "ref": ref, "source": _source_digest(function),
+                         "options": self.options}
+        self.store = (PredictionStore(self.out / "store", {"model": model_key, "sampling": sampling},
+                                      self.parameters, self.sensors)
+                      if self.out is not None and store else None)
+        self._temp = None
+        if command is not None:
+            if self.out is not None:
+                self.work_root = self.out / "work"
+                self.work_root.mkdir(parents=True, exist_ok=True)
+            else:
+                self._temp = self.work_root = Path(tempfile.mkdtemp(prefix="edmf-rs-work-"))
+            self._write_failures()
+        self.pool = FunctionPool(ref, path, self.options, workers) if command is None and workers > 1 else None
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray:
+        theta = np.asarray(theta, dtype=np.float64)
+        first, n = self.offset, theta.shape[0]
+        # The rows the store holds (a prefix of the batch: it holds instances 0..covered-1) are reused.
+        k = min(max(self.store.covered() - first, 0), n) if self.store is not None else 0
+        parts = [self._reuse(first, theta[:k])] if k else []
+        if k < n:
+            parts.append(self._evaluate(first + k, theta[k:]))
+        self.offset += n
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    def _reuse(self, first: int, theta: np.ndarray) -> np.ndarray:
+        n = theta.shape[0]
+        stored = self.store.read(first, n)
+        if stored is None or not np.array_equal(stored.parameters, theta):
+            raise SimulationError(f"the prediction store {self.store.folder} holds other parameters for instances "
+                                  f"{first}..{first + n - 1} than this run's sampling; remove that folder")
+        self.reused_evaluations += n
+        for i in np.flatnonzero(stored.failed):
+            self._count(Failure(first + int(i), tuple(theta[i]), stored.reason[i], stored.stderr[i], stored.work[i]))
+        return stored.predictions
+
+    def _evaluate(self, first: int, theta: np.ndarray) -> np.ndarray:
+        n = theta.shape[0]
+        if self.command is not None:
+            return self._run_commands(first, theta)
+        out = self.pool(theta, first) if self.pool is not None else np.asarray(
+            self.function(theta, **self.options), dtype=np.float64)
+        self.model_evaluations += n
+        if self.store is not None and out.shape == (n, len(self.sensors)):
+            self.store.append(first, theta, out, np.zeros(n, bool), [""] * n, [""] * n, [""] * n)
+        return out
+
+    def _run_commands(self, first: int, theta: np.ndarray) -> np.ndarray:
+        n, m = theta.shape[0], len(self.sensors)
+        out = np.full((n, m), np.nan)
+        failed, reason, stderr, work = np.zeros(n, bool), [""] * n, [""] * n, [""] * n
+        flushed, last = 0, time.monotonic()
+
+        def flush(upto: int) -> None:
+            nonlocal flushed, last
+            if self.store is not None and upto > flushed:
+                s = slice(flushed, upto)
+                self.store.append(first + flushed, theta[s], out[s], failed[s], reason[s], stderr[s], work[s])
+            if failed[flushed:upto].any():
+                self._write_failures()
+            flushed, last = upto, time.monotonic()
+
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(self.workers, thread_name_prefix="edmf-rs-run") as pool:
+            results = ordered(pool, self.command.run, ((first + i, theta[i], self.work_root) for i in range(n)))
+            done = 0
+            try:
+                for i, result in enumerate(results):
+                    done = i + 1
+                    self.model_evaluations += 1
+                    if isinstance(result, Failure):
+                        failed[i], reason[i], stderr[i], work[i] = True, result.reason, result.stderr, result.work
+                        self._count(result)
+                    else:
+                        out[i] = result
+                    why = self.policy.check(first + i + 1, self._first_failed, len(self.failures),
+                                            self.n_planned)
+                    if why is not None:
+                        flush(i + 1)
+                        raise SimulationError(self._stop_message(why))
+                    if time.monotonic() - last > FLUSH_SECONDS:
+                        flush(i + 1)
+            except BaseException:  # a stop, Ctrl-C: keep what finished, do not wait for long runs
+                results.close()
+                self.command.kill_running()
+                flush(done)
+                raise
+            finally:
+                results.close()  # cancels the runs not started (after Ctrl-C or a stop)
+        flush(n)
+        return out
+
+    def _count(self, failure: Failure) -> None:
+        self.failures.append(failure)
+        if failure.instance < self.policy.first:
+            self._first_failed += 1
+
+    def _stop_message(self, why: str) -> str:
+        shown = self.failures[: self.policy.first]
+        lines = [f"model runs stopped: {why}" + (f" (see {self.out / 'failures.csv'})" if self.out else "") + ":"]
+        lines += [f"  {f.describe(self.parameters)}" for f in shown]
+        return "\n".join(lines)
+
+    def _write_failures(self) -> None:
+        if self.out is not None:
+            write_failures(self.out / "failures.csv", self.failures, self.parameters)
+
+    def stats(self) -> dict:
+        """Counts for summary.json: instances evaluated now, reused from the store, failed."""
+        return {"model_evaluations": self.model_evaluations, "reused_evaluations": self.reused_evaluations,
+                "failed_instances": len(self.failures),
+                "prediction_store": str(self.store.folder) if self.store is not None else None}
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.close()
+        if self.command is not None:
+            self.command.wait_for_cleanup()
+            self._write_failures()
+        if self._temp is not None and not any(self._temp.iterdir()):
+            shutil.rmtree(self._temp, ignore_errors=True)
