@@ -83,6 +83,7 @@ def run_adaptive(project, *, progress: bool = True):
     """Runs an adaptive project: the waves, then the diagnostics on every real run."""
     from ..engine.thresholds import threshold_bounds
     from .diagnostics import SensitivityTracker, leave_one_out
+    from .qoi import prognosis_of
     from .result import PlotSample
     from .schema import ProjectError
 
@@ -109,7 +110,7 @@ def run_adaptive(project, *, progress: bool = True):
                               index=pd.Index(falsification.candidate_indices, name="instance"))
     prognoses = ()
     if falsification.n_candidates:
-        prognoses = tuple(project._prognosis(spec, func, falsification.candidate_parameters)
+        prognoses = tuple(prognosis_of(project, spec, func, falsification.candidate_parameters)
                           for spec, func in project.prognosis)
     ident = Identification(project=project, combined=combined, thresholds=thresholds, falsification=falsification,
                            leave_one_out=leave_one_out(falsification, project.sensor_names),

@@ -157,3 +157,14 @@ def match_columns(found: list[str] | int, wanted: list[str], allowed: set[str] |
         extra = [c for c in found if c not in wanted]
         also = f" (the file also has {', '.join(extra)})" if extra and not unexpected else ""
         raise ProjectError(f"{file}: expected columns named after the {what} ({', '.join(wanted)}), {detail}{also}")
+
+
+def check_model_sensors(listed: tuple[str, ...] | None, sensors: tuple[Sensor, ...], label: str) -> None:
+    """Every sensor used is among the columns ``[model] sensors`` names."""
+    if listed is None:
+        return
+    missing = [s.name for s in sensors if s.name not in listed]
+    if missing:
+        raise ProjectError(f"{label}: model.sensors: expected every sensor of the measurements, missing "
+                           f"{', '.join(missing)} (the measurements have {', '.join(s.name for s in sensors)}; "
+                           f"model.sensors lists {', '.join(listed)})")

@@ -25,10 +25,9 @@ from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
 from ..simulators import CommandModel, Evaluator
 from .diagnostics import SensitivityTracker, leave_one_out
-from .errors import call_user_code
 from .evaluation import CheckedModel
 from .external import command_model, make_evaluator
-from .inputs import check_sensors, import_function
+from .inputs import check_model_sensors, check_sensors, import_function
 from .measurements import read_measurements
 from .plan import Plan, check_estimate
 from .precomputed import (
@@ -37,11 +36,11 @@ from .precomputed import (
     first_parameters,
     precomputed_instances,
 )
-from .prognosis import predict
 from .progress import Progress
+from .qoi import call_prognosis, prognosis_of
 from .result import Identification, PlotSample
 from .schema import ModelSpec, PrognosisSpec, ProjectError, Sensor, read_spec
-from .sources import UncertaintySource, combine_sources, frozen, resolve_sources
+from .sources import UncertaintySource, combine_sources, resolve_sources
 
 __all__ = ["Project", "ProjectError"]
 
@@ -158,7 +157,7 @@ class Project:
             raise ProjectError(f"{label}: 'instance' names the index of candidates.parquet; expected another "
                                "name for that parameter or sensor")
         sensors = tuple(all_sensors[i] for i in kept)
-        _check_model_sensors(spec.model.sensors, sensors, label)
+        check_model_sensors(spec.model.sensors, sensors, label)
         model_function = command = None
         if spec.model.command is not None:
             command = command_model(spec, all_sensors, label)
@@ -292,7 +291,7 @@ class Project:
         else:
             theta = first_parameters(self, 2)
         for spec, func in self.prognosis:
-            self._call_prognosis(spec, func, theta, what="instance")
+            call_prognosis(self, spec, func, theta, what="instance")
         instances = self.sampling.describe() if self.sampling is not None else \
             f"precomputed in {self.model.predictions.name}"
         return Plan(project=str(self.file), n_instances=self.n_instances, n_sensors=len(self.sensors),
@@ -403,7 +402,7 @@ class Project:
         )
         prognoses = ()
         if result.n_candidates:
-            prognoses = tuple(self._prognosis(spec, func, result.candidate_parameters, result.candidate_indices)
+            prognoses = tuple(prognosis_of(self, spec, func, result.candidate_parameters, result.candidate_indices)
                               for spec, func in self.prognosis)
         return Identification(
             project=self, combined=combined, thresholds=thresholds, falsification=result,
@@ -432,41 +431,3 @@ class Project:
                             parameter_names=self.parameter_names,
                             nan="falsify" if self.command else self.model.nan, where=f"{self.file}: model.{what}")
 
-    def _describe(self, row) -> str:
-        return ", ".join(f"{n}={v:g}" for n, v in zip(self.parameter_names, row))
-
-    def _call_prognosis(self, spec: PrognosisSpec, func: Callable, theta: np.ndarray, *, what: str = "candidate",
-                        index=None):
-        """q(theta) of a prognosis function, its failures named after it; checked to be one number per row."""
-        where = f"{self.file}: {spec.key}.function = '{spec.function}'"
-        first = 0 if index is None else int(index[0])
-        q = call_user_code(lambda t: func(t, **spec.options), theta, what=where, unit=what,
-                           where=f"{theta.shape[0]:,} {what}s", first=first, describe=self._describe)
-        try:
-            arr = np.asarray(q, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ProjectError(f"{where}: returned {type(q).__name__}, expected one number per {what}") from None
-        if arr.shape not in ((theta.shape[0],), (theta.shape[0], 1)):
-            raise ProjectError(f"{where}: returned shape {arr.shape} for {theta.shape[0]} {what}s, expected "
-                               f"({theta.shape[0]},): one value per {what}")
-        return arr
-
-    def _prognosis(self, spec: PrognosisSpec, func: Callable, theta: np.ndarray, index=None):
-        uncertainty = frozen(*spec.uncertainty) if spec.uncertainty is not None else None
-        values = self._call_prognosis(spec, func, theta, index=index)
-        try:
-            return predict(lambda t: values, theta, uncertainty=uncertainty,
-                           probability=spec.probability, name=spec.name, unit=spec.unit)
-        except ValueError as exc:
-            raise ProjectError(f"{self.file}: {spec.key}.function = '{spec.function}': {exc}") from None
-
-
-def _check_model_sensors(listed: tuple[str, ...] | None, sensors: tuple[Sensor, ...], label: str) -> None:
-    """Every sensor used is among the columns ``[model] sensors`` names."""
-    if listed is None:
-        return
-    missing = [s.name for s in sensors if s.name not in listed]
-    if missing:
-        raise ProjectError(f"{label}: model.sensors: expected every sensor of the measurements, missing "
-                           f"{', '.join(missing)} (the measurements have {', '.join(s.name for s in sensors)}; "
-                           f"model.sensors lists {', '.join(listed)})")
