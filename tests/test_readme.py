@@ -35,3 +35,14 @@ def test_ci_runs_the_readme_test_command():
     ci = (README.parent / ".ci" / "run").read_text(encoding="utf-8")
     command = ci.strip().splitlines()[-1]
     assert command in text, "the README must show the exact command .ci/run runs"
+
+
+def test_the_adaptive_numbers_are_the_benchmarks():
+    """The README's adaptive-sampling claim is the girder line of benches/results-adaptive.txt."""
+    results = (README.parent / "benches" / "results-adaptive.txt").read_text(encoding="utf-8")
+    girder = results.split("girder, 3 parameters:")[1].split("girder, 5 parameters:")[0]
+    runs = re.search(r"adaptive: ([\d,]+) runs in", girder).group(1)
+    dense = re.search(r"dense Sobol' needs ([\d,]+) runs for the 2 % target", girder).group(1)
+    assert "meets the 2 % target" in girder
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    assert f"within 2 % of the domain with {runs} runs where dense Sobol' sampling needed {dense}" in text
