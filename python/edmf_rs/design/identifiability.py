@@ -190,13 +190,32 @@ def identifiability_curve(predictions, combined, order, *, n_simulations: int = 
                           correction: str = "sidak", seed=0) -> IdentifiabilityCurve:
     """Expected identifiability after the first 1, 2, ..., k sensors of ``order``.
 
-    Same parameters as :func:`expected_identifiability` (``order`` as its
-    ``sensors``); every prefix uses the same simulations, so point m equals
+    Every prefix uses the same simulations, so point m equals
     ``expected_identifiability(predictions, combined, order[:m], seed=seed)``.
+    Šidák widens the bounds as sensors are added, so the curve can turn back up.
+
+    Parameters
+    ----------
+    predictions : array_like, shape (N, L)
+        Predictions of the N model instances at the L candidate locations.
+    combined : CombinedUncertainty
+        U_c of all L locations (Eq. 4), as `edmf_rs.combine` makes it.
+    order : sequence of int
+        Locations in the order they are added (e.g. ``place_sensors(...).order``).
+    n_simulations, phi, correction, seed
+        As in :func:`expected_identifiability`.
 
     Returns
     -------
     IdentifiabilityCurve
+        ``sizes`` of shape (len(order), n_simulations): candidate-set sizes
+        after each added sensor.
+
+    Raises
+    ------
+    ValueError
+        If ``order`` is empty, out of range or repeated, or the inputs are
+        invalid (see :func:`expected_identifiability`).
 
     Examples
     --------
