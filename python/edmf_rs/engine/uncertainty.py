@@ -45,6 +45,11 @@ class CombinedUncertainty:
         and those whose every source is normal.
     seed : int or None
         The seed the samples were drawn with (None when a Generator was passed).
+    sources : tuple or None
+        Per sensor, its sources as ``(sign, frozen scalar distribution)``
+        (sign -1 for a measurement source, Eq. 4), when not exact:
+        `threshold_bounds` convolves them numerically
+        (`edmf_rs.engine.convolution`).
     exact : bool
         True when ``distribution`` is given.
     mean, std : numpy.ndarray
@@ -70,6 +75,7 @@ class CombinedUncertainty:
     gaussian: np.ndarray | None = None
     seed: object = None
     sensor_names: tuple | None = None
+    sources: tuple | None = None
 
     @property
     def exact(self) -> bool:
@@ -277,8 +283,9 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         if not np.all(np.isfinite(draws)):
             raise ValueError(f"{name}: its distribution gave non-finite samples (check its parameters)")
         samples += sign * draws
+    per_sensor_sources = tuple(tuple((s[0], group[j]) for s, group in zip(sources, per_sensor)) for j in range(n_m))
     return CombinedUncertainty(n_m, samples=samples, marginals=tuple(marginals), symmetric=symmetric,
-                               gaussian=np.array(normal), seed=_seed_record(seed))
+                               gaussian=np.array(normal), seed=_seed_record(seed), sources=per_sensor_sources)
 
 
 def _seed_record(seed):

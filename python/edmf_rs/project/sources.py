@@ -149,4 +149,6 @@ def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray
         n_m, samples=samples, marginals=marginals, seed=seed, sensor_names=names,
         symmetric=np.array([bool(c.symmetric[0]) for c in per_sensor]),
         gaussian=np.array([c.exact or bool(c.gaussian[0]) for c in per_sensor]),
+        sources=tuple(c.sources[0] if c.sources is not None else ((1.0, stats.norm(mean[j], std[j])),)
+                      for j, c in enumerate(per_sensor)),
     )
