@@ -82,6 +82,38 @@ def _support(sign: float, dist) -> tuple[float, float] | None:
     return (lo, hi) if sign > 0 else (-hi, -lo)
 
 
+def _group_supports(g):
+    """(supports (sensors, sources, 2), usable (sensors,)) of a group, every source at once."""
+    n = len(g["sensors"])
+    sup = np.empty((n, len(g["kinds"]), 2))
+    ok = np.ones(n, dtype=bool)
+    for k, (family, sign) in enumerate(g["kinds"]):
+        args = [*g["shapes"][k]]
+        with np.errstate(all="ignore"):
+            q = family.ppf(np.array([TAIL, 0.25, 0.75])[:, None], *args, loc=g["loc"][k], scale=g["scale"][k])
+            hi = family.isf(TAIL, *args, loc=g["loc"][k], scale=g["scale"][k])
+        lo, q1, q3 = q
+        ok &= np.isfinite(lo) & np.isfinite(hi) & np.isfinite(q1) & np.isfinite(q3) & (hi > lo) & (q3 > q1)
+        ok &= hi - lo <= MAX_SPAN_IQR * (q3 - q1)  # tails too heavy for one grid: bulk and tail
+        sup[:, k] = np.column_stack([lo, hi] if sign > 0 else [-hi, -lo])
+    return sup, ok
+
+
+def usable(sensor_sources) -> np.ndarray:
+    """Per sensor, whether `convolvable` holds, computed a group of sensors at a time.
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> usable([[(1.0, stats.norm())], [(1.0, stats.cauchy())]]).tolist()
+    [True, False]
+    """
+    out = np.zeros(len(sensor_sources), dtype=bool)
+    for g in _groups(sensor_sources):
+        out[g["sensors"]] = _group_supports(g)[1]
+    return out
+
+
 def convolvable(sources) -> bool:
     """Whether one sensor's sources ``[(sign, frozen distribution), ...]`` can be convolved:
     every source has a finite support after cutting TAIL off each end, not too wide
@@ -197,6 +229,8 @@ def _groups(sensor_sources):
     """Sensors grouped by their sources' families and signs, parameters stacked per group."""
     groups: dict = {}
     for j, sources in enumerate(sensor_sources):
+        if not sources:
+            raise ValueError(f"combined: sensor {j} has no source to convolve")
         params = [(s, *_params(d)) for s, d in sources]
         key = tuple((fam.name, s, len(sh)) for s, fam, sh, _, _ in params)
         g = groups.setdefault(key, {"kinds": [(fam, s) for s, fam, *_ in params], "sensors": [], "p": []})
@@ -246,16 +280,12 @@ def shortest_bounds(sensor_sources, probability: float, symmetric=None) -> Convo
     symmetric = np.zeros(n_m, dtype=bool) if symmetric is None else np.asarray(symmetric, dtype=bool)
     low, high, error = np.empty(n_m), np.empty(n_m), np.empty(n_m)
     cells = np.zeros(n_m, dtype=np.int64)
-    supports = []
-    for j, sources in enumerate(sensor_sources):
-        sup = [_support(s, d) for s, d in sources]
-        if not sources or any(x is None for x in sup):
-            raise ValueError(f"combined: the sources at sensor {j} cannot be convolved on a grid "
-                             "(a source without finite quantiles, or with tails too heavy)")
-        supports.append(sup)
     for g in _groups(sensor_sources):
         idx = np.array(g["sensors"])
-        sup = np.array([supports[j] for j in idx])  # (sensors, sources, 2)
+        sup, ok = _group_supports(g)  # (sensors, sources, 2)
+        if not ok.all():
+            raise ValueError(f"combined: the sources at sensor {idx[~ok][0]} cannot be convolved on a grid "
+                             "(a source without finite quantiles, or with tails too heavy)")
         lo, hi, err, n = _converge(g, sup, probability, symmetric[idx])
         low[idx], high[idx], error[idx], cells[idx] = lo, hi, err, n
     return ConvolutionBounds(low - error, high + error, error, cells)

@@ -363,7 +363,8 @@ def _monte_carlo_bounds(combined, phi, correction, confidence, estimator, seed, 
     method = [None] * n_m
     conv = []
     if convolve and combined.sources is not None:
-        conv = [j for j in range(n_m) if marginals[j] is None and convolution.convolvable(combined.sources[j])]
+        conv = [j for j in range(n_m) if marginals[j] is None]
+        conv = [j for j, ok in zip(conv, convolution.usable([combined.sources[j] for j in conv])) if ok]
     if conv:
         b = convolution.shortest_bounds([combined.sources[j] for j in conv], p, symmetric=symmetric[conv])
         low[conv], high[conv], se_low[conv], se_high[conv] = b.low, b.high, b.error, b.error
