@@ -102,6 +102,21 @@ def _group_supports(g):
 def usable(sensor_sources) -> np.ndarray:
     """Per sensor, whether `convolvable` holds, computed a group of sensors at a time.
 
+    Parameters
+    ----------
+    sensor_sources : sequence
+        Per sensor, a non-empty sequence of ``(sign, frozen scalar distribution)``.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        One entry per sensor.
+
+    Raises
+    ------
+    ValueError
+        If a sensor has no source.
+
     Examples
     --------
     >>> from scipy import stats
@@ -118,6 +133,15 @@ def convolvable(sources) -> bool:
     """Whether one sensor's sources ``[(sign, frozen distribution), ...]`` can be convolved:
     every source has a finite support after cutting TAIL off each end, not too wide
     for its interquartile range, and a cdf.
+
+    Parameters
+    ----------
+    sources : sequence of (float, frozen scipy.stats distribution)
+        One sensor's signed sources (Eq. 4).
+
+    Returns
+    -------
+    bool
 
     Examples
     --------
@@ -274,7 +298,7 @@ def shortest_bounds(sensor_sources, probability: float, symmetric=None) -> Convo
     >>> from scipy import stats
     >>> b = shortest_bounds([((1.0, stats.norm(0, 1)), (-1.0, stats.uniform(-2, 4)))], 0.99, symmetric=[True])
     >>> round(float(b.low[0]), 3), round(float(b.high[0]), 3)
-    (-3.143, 3.143)
+    (-3.663, 3.663)
     """
     n_m = len(sensor_sources)
     symmetric = np.zeros(n_m, dtype=bool) if symmetric is None else np.asarray(symmetric, dtype=bool)
