@@ -246,6 +246,11 @@ def _shortest(edges, cdf, nodes, density, p):
         lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
     a = np.where(ok, 0.5 * (lo + hi), a_best)[:, None]
     low, high = quantile(a)[:, 0], quantile(a + p)[:, 0]
+    # a flat density (f(low) = f(high) over a range) can mislead the refinement: keep the best
+    # grid window, exact for the piecewise-linear cdf, where the refined one is clearly wider
+    worse = (high - low) > width[rows, best] * (1.0 + TOLERANCE)
+    low[worse] = edges[rows, best][worse]
+    high[worse] = low[worse] + width[rows, best][worse]
     return low, high
 
 

@@ -3,6 +3,9 @@
 From Eq. 4, ``g_i(theta*) - y_i = eps_model,i - eps_measure,i``, so the residual
 of the right model instance is distributed as U_c = sum(model) - sum(measurement).
 Sources are ordinary frozen ``scipy.stats`` distributions.
+
+Longer than 450 lines: `combine`, the project-file distribution shorthands
+and `relative_to_measured` share the parsing of frozen distributions.
 """
 
 from __future__ import annotations
