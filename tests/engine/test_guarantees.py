@@ -21,14 +21,17 @@ def test_sidak_is_exact_for_gaussian_and_bonferroni_bounds_the_rest():
     assert gauss.gaussian and gauss.guaranteed_probability == pytest.approx(0.95, abs=1e-12)
     c = edmf_rs.combine(model=stats.uniform(-1, 2), measurement=stats.norm(0, 1), n_sensors=50, n_samples=20_000)
     with pytest.warns(UserWarning, match="about 10 of 20,000"):  # few samples per tail at this n_samples
-        mc = edmf_rs.threshold_bounds(c, phi=0.95)
+        mc = edmf_rs.threshold_bounds(c, phi=0.95, method="monte-carlo")
     # 1 - n (1 - phi^(1/n)) at phi = 0.95, n = 50
     assert not mc.gaussian and mc.guaranteed_probability == pytest.approx(1 - 50 * (1 - 0.95 ** (1 / 50)))
     assert round(mc.guaranteed_probability, 4) == 0.9487
     assert "0.9487 whatever the dependence" in mc.guarantee() and "confidence 0.975" in mc.guarantee()
     with pytest.warns(UserWarning, match="n_samples >= 200,000"):
-        bonf = edmf_rs.threshold_bounds(c, phi=0.95, correction="bonferroni")
+        bonf = edmf_rs.threshold_bounds(c, phi=0.95, correction="bonferroni", method="monte-carlo")
     assert bonf.guaranteed_probability == pytest.approx(0.95, abs=1e-12)
+    conv = edmf_rs.threshold_bounds(c, phi=0.95)  # the default, numerical convolution: no samples in the bounds
+    assert conv.guaranteed_probability == mc.guaranteed_probability and not conv.monte_carlo
+    assert "0.9487 whatever the dependence" in conv.guarantee() and "confidence" not in conv.guarantee()
     assert edmf_rs.Thresholds([0.0], [1.0]).guaranteed_probability is None
 
 

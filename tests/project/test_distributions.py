@@ -8,7 +8,7 @@ import textwrap
 import numpy as np
 import pytest
 from edmf_rs.engine import intervals
-from edmf_rs.engine.uncertainty import distribution
+from edmf_rs.engine.distributions import distribution
 from edmf_rs.project import Project, ProjectError
 from scipy import stats
 
@@ -98,7 +98,10 @@ def test_symmetric_triangular_and_truncated_normal_take_the_central_window(tmp_p
     assert c.symmetric.all()
     import edmf_rs
 
-    assert edmf_rs.threshold_bounds(c).method == ("central", "central")
+    assert edmf_rs.threshold_bounds(c, method="monte-carlo").method == ("central", "central")
+    t = edmf_rs.threshold_bounds(c)  # the default: numerical convolution, central interval of a symmetric U_c
+    assert t.method == ("convolution", "convolution")
+    np.testing.assert_allclose(t.low, -t.high, atol=1e-6 * t.width.max())
 
 
 def test_truncated_normal_mean_off_centre_is_asymmetric():

@@ -270,7 +270,9 @@ class Identification:
         Cantilever beam, scenario 2: 101 model instances, 10 sensors, phi = 0.95 (sidak correction), combined uncertainty exact (normal)
         """
         p, r = self.project, self.falsification
-        combined = "exact (normal)" if self.combined.exact else f"Monte Carlo, {p.n_samples:,} samples"
+        combined = "exact (normal)" if self.combined.exact else (
+            "numerical convolution of the sources" if not self.thresholds.monte_carlo
+            else f"Monte Carlo, {p.n_samples:,} samples")
         lines = [f"{p.name}: {r.n_instances:,} model instances, {r.n_sensors} sensors, phi = {p.phi:g} "
                  f"({p.correction} correction), combined uncertainty {combined}"]
         if r.model_class_falsified:

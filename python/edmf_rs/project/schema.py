@@ -390,7 +390,7 @@ def distribution_values(t: Table, distribution: str, *, absolute_only: bool = Fa
 
 def _source_distribution(t: Table, name: str) -> tuple[str, tuple, tuple]:
     """(distribution, values, params) of one [[uncertainty]] source, checked by freezing it."""
-    from ..engine.uncertainty import SHORTHANDS, accepted_parameters, distribution
+    from ..engine.distributions import SHORTHANDS, accepted_parameters, distribution
 
     family = t.get("distribution", "str", what="'normal', 'uniform', 'triangular', 'truncated_normal' or "
                                                "a continuous scipy.stats distribution name (e.g. 'lognorm')")

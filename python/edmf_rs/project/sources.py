@@ -16,12 +16,8 @@ import numpy as np
 from scipy import stats
 
 from ..engine import intervals
-from ..engine.uncertainty import (
-    CombinedUncertainty,
-    combine,
-    distribution,
-    relative_to_measured,
-)
+from ..engine.distributions import distribution
+from ..engine.uncertainty import CombinedUncertainty, combine, relative_to_measured
 from .schema import ProjectError, Sensor, UncertaintySpec
 
 
@@ -149,4 +145,6 @@ def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray
         n_m, samples=samples, marginals=marginals, seed=seed, sensor_names=names,
         symmetric=np.array([bool(c.symmetric[0]) for c in per_sensor]),
         gaussian=np.array([c.exact or bool(c.gaussian[0]) for c in per_sensor]),
+        sources=tuple(c.sources[0] if c.sources is not None else ((1.0, stats.norm(mean[j], std[j])),)
+                      for j, c in enumerate(per_sensor)),
     )

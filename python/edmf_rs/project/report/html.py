@@ -171,8 +171,9 @@ def _sources(ident) -> str:
 def _settings(ident) -> str:
     p, t = ident.project, ident.thresholds
     sampling = p.sampling.describe() if p.sampling else f"precomputed instances ({p.model.predictions.name})"
-    combined = "exact (every source normal)" if ident.combined.exact else \
-        f"Monte Carlo, {p.n_samples:,} samples (seed {p.seed})"
+    combined = "exact (every source normal)" if ident.combined.exact else (
+        "numerical convolution of the sources (error < 1e-4 of the width)" if not t.monte_carlo
+        else f"Monte Carlo, {p.n_samples:,} samples (seed {p.seed})")
     model = p.model.function or (f"command {' '.join(p.model.command.command)}" if p.model.command
                                  else p.model.predictions.name)
     rows = [["model", model], ["instances", sampling], ["target probability φ", f"{p.phi:g}"],
