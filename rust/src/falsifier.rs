@@ -5,7 +5,13 @@
 //! Work inside a chunk is split into slabs (about four million predictions). The
 //! caller's `stop` check runs between slabs on the calling thread, which is how
 //! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
+//!
+//! A checkpointed run also needs the content digest of every row (see
+//! [`crate::digest`]); `update_digested` hashes each 1024-row leaf in the task
+//! that has just screened the matching kernel block, while the rows are still
+//! in that core's cache, instead of reading the whole chunk from memory again.
 
+use crate::digest::{leaf_digest, RowDigest, Value, LEAF_ROWS};
 use crate::error::{EdmfError, Result};
 use crate::kernel::{diagnose, screen, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -21,6 +27,8 @@ const SLAB_ELEMENTS: usize = 1 << 22;
 /// Rows diagnosed to learn the screening order: enough to rank the sensors,
 /// few enough that the slower full visit costs nothing measurable.
 const LEARN_ROWS: usize = 16 * BLOCK_ROWS;
+// Kernel block k of a chunk hashes digest leaf k (the leaf starting in it).
+const _: () = assert!(BLOCK_ROWS == LEAF_ROWS);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -46,6 +54,29 @@ pub struct Falsifier {
     scratch: Vec<u32>,
     /// Candidates found by each block of the current slab.
     block_counts: Vec<usize>,
+    /// Digest of the leaf starting in each block of the current slab.
+    block_leaves: Vec<u64>,
+    /// Digests of the whole leaves of the current chunk (`update_digested`).
+    chunk_leaves: Vec<u64>,
+}
+
+/// Where a chunk's digest leaves lie (see `RowDigest::leaves_in`): leaf `l`
+/// is rows `head + l * LEAF_ROWS ..` of `chunk`, for `l < whole`.
+#[derive(Clone, Copy)]
+struct Leaves<'a, T> {
+    chunk: Matrix<'a, T>,
+    head: usize,
+    whole: usize,
+}
+
+impl<T: Value> Leaves<'_, T> {
+    /// Hashes leaf `l` into `out` if it is a whole leaf of the chunk.
+    fn hash(&self, l: usize, out: &mut u64, buf: &mut Vec<u8>) {
+        if l < self.whole {
+            let s = self.head + l * LEAF_ROWS;
+            *out = leaf_digest(self.chunk.slice_rows(s, s + LEAF_ROWS), buf);
+        }
+    }
 }
 
 impl Falsifier {
@@ -80,6 +111,8 @@ impl Falsifier {
             violations: Vec::new(),
             scratch: Vec::new(),
             block_counts: Vec::new(),
+            block_leaves: Vec::new(),
+            chunk_leaves: Vec::new(),
         })
     }
 
@@ -121,11 +154,35 @@ impl Falsifier {
     }
 
     /// Falsifies the next `chunk` of instances (rows; one column per sensor).
-    pub fn update<T: Prediction>(
+    pub fn update<T: Prediction + Value>(
         &mut self,
         chunk: Matrix<'_, T>,
         pool: &ThreadPool,
         stop: &mut dyn FnMut() -> bool,
+    ) -> Result<()> {
+        self.update_with(chunk, pool, stop, None)
+    }
+
+    /// Like [`update`](Self::update), and feeds the chunk to `digest` in the
+    /// same pass (the digest is the one `digest.update(chunk)` gives, whatever
+    /// the chunking, threads or dtype). An interrupted chunk leaves no trace
+    /// in the digest either.
+    pub fn update_digested<T: Prediction + Value>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        stop: &mut dyn FnMut() -> bool,
+        digest: &mut RowDigest,
+    ) -> Result<()> {
+        self.update_with(chunk, pool, stop, Some(digest))
+    }
+
+    fn update_with<T: Prediction + Value>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        stop: &mut dyn FnMut() -> bool,
+        digest: Option<&mut RowDigest>,
     ) -> Result<()> {
         let n_m = self.n_sensors();
         if chunk.cols() != n_m {
@@ -137,11 +194,25 @@ impl Falsifier {
                 ),
             ));
         }
+        let leaves = match &digest {
+            Some(d) => {
+                d.check_width(chunk.cols())?; // before any work: a chunk is taken whole or not at all
+                let (head, whole) = d.leaves_in(chunk.rows());
+                self.chunk_leaves.clear();
+                reserve(&mut self.chunk_leaves, whole, "leaf digests")?;
+                self.chunk_leaves.resize(whole, 0);
+                Some(Leaves { chunk, head, whole })
+            }
+            None => None,
+        };
         let (kept_candidates, kept_violations) = (self.candidates.len(), self.violations.len());
-        match self.falsify_slabs(chunk, pool, stop) {
+        match self.falsify_slabs(chunk, pool, stop, leaves) {
             Ok(chunk_tally) => {
                 self.tally.add(&chunk_tally);
                 self.n_instances += chunk.rows() as u64;
+                if let Some(d) = digest {
+                    d.update_hashed(chunk, &self.chunk_leaves)?; // width checked above: cannot fail
+                }
                 Ok(())
             }
             Err(e) => {
@@ -155,11 +226,12 @@ impl Falsifier {
     }
 
     /// The slabs of one chunk; the chunk's tally, or the error that stopped it.
-    fn falsify_slabs<T: Prediction>(
+    fn falsify_slabs<T: Prediction + Value>(
         &mut self,
         chunk: Matrix<'_, T>,
         pool: &ThreadPool,
         stop: &mut dyn FnMut() -> bool,
+        leaves: Option<Leaves<'_, T>>,
     ) -> Result<Tally> {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
         let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
@@ -180,8 +252,13 @@ impl Falsifier {
                 self.scratch.resize(last - first, 0);
             }
             let out = &mut self.scratch[..last - first];
-            self.block_counts.resize(out.len().div_ceil(BLOCK_ROWS), 0);
+            let n_blocks = out.len().div_ceil(BLOCK_ROWS);
+            self.block_counts.resize(n_blocks, 0);
+            self.block_leaves.resize(n_blocks, 0);
             let counts = &mut self.block_counts[..];
+            // Slabs start on block boundaries: block k of this slab is block first_block + k of the chunk.
+            let first_block = first / BLOCK_ROWS;
+            let hashing = (leaves.map(|l| (l, first_block)), &mut self.block_leaves[..n_blocks]);
             let base = self.n_instances + first as u64;
             let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
             // One hand-over to the pool per slab: waking it costs more than a
@@ -189,13 +266,18 @@ impl Falsifier {
             let tally = pool.install(|| {
                 let tally = match (self.mode, plan) {
                     (Mode::Screen, Some(plan)) => {
-                        screen_parallel(slab, bounds, plan, out, counts);
+                        screen_parallel(slab, bounds, plan, out, counts, hashing);
                         None
                     }
-                    _ => Some(diagnose_parallel(slab, bounds, out, counts)),
+                    _ => Some(diagnose_parallel(slab, bounds, out, counts, hashing)),
                 };
                 collect_candidates(out, counts, base, candidates).map(|()| tally)
             })?;
+            if let Some(l) = leaves {
+                // The leaves that start in this slab's blocks, into their place in the chunk.
+                let (from, to) = (first_block.min(l.whole), (first_block + n_blocks).min(l.whole));
+                self.chunk_leaves[from..to].copy_from_slice(&self.block_leaves[..to - from]);
+            }
             match (self.mode, tally) {
                 (Mode::Diagnose, Some(t)) => {
                     chunk_tally.add(&t);
@@ -277,44 +359,63 @@ fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
         .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
-/// Runs in the caller's pool; each block's candidate count into `counts`.
-fn diagnose_parallel<T: Prediction>(
+/// When hashing: the chunk's leaves and the slab's first block in the chunk;
+/// and one digest slot per block of the slab (left alone when not hashing).
+type Hashing<'a, 'b, T> = (Option<(Leaves<'a, T>, usize)>, &'b mut [u64]);
+
+/// Runs in the caller's pool; each block's candidate count into `counts`,
+/// and, when hashing, the digest of the leaf starting in it into its slot.
+fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],
     counts: &mut [usize],
+    hashing: Hashing<'_, '_, T>,
 ) -> Tally {
     let n_m = b.len();
+    let (leaves, slots) = hashing;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
+        .zip(slots.par_iter_mut())
         .enumerate()
         .fold(
-            || Tally::zeros(n_m),
-            |mut t, (k, (o, count))| {
+            || (Tally::zeros(n_m), Vec::new()),
+            |(mut t, mut buf), (k, ((o, count), slot))| {
                 let first = k * BLOCK_ROWS;
                 diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
                 *count = candidates_in(o);
-                t
+                if let Some((l, first_block)) = &leaves {
+                    l.hash(first_block + k, slot, &mut buf); // rows just read: in this core's cache
+                }
+                (t, buf)
             },
         )
+        .map(|(t, _)| t)
         .reduce(|| Tally::zeros(n_m), Tally::merge)
 }
 
-/// Runs in the caller's pool; each block's candidate count into `counts`.
-fn screen_parallel<T: Prediction>(
+/// Runs in the caller's pool; each block's candidate count into `counts`,
+/// and, when hashing, the digest of the leaf starting in it into its slot.
+fn screen_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     plan: &ScreenPlan,
     out: &mut [u32],
     counts: &mut [usize],
+    hashing: Hashing<'_, '_, T>,
 ) {
+    let (leaves, slots) = hashing;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
+        .zip(slots.par_iter_mut())
         .enumerate()
-        .for_each(|(k, (o, count))| {
+        .for_each_init(Vec::new, |buf, (k, ((o, count), slot))| {
             let first = k * BLOCK_ROWS;
             screen(m.slice_rows(first, first + o.len()), b, plan, o);
             *count = candidates_in(o);
+            if let Some((l, first_block)) = &leaves {
+                l.hash(first_block + k, slot, buf); // rows just read: in this core's cache
+            }
         })
 }
 
