@@ -203,16 +203,33 @@ fn block_digest(cols: usize, rows: usize, leaves: &[u64]) -> u128 {
 }
 
 /// xxh3-64 of a whole leaf ([`LEAF_ROWS`] rows); hashed in place when it is
-/// contiguous float64 (the common case: no copy), else through `buf`.
-pub fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<u8>) -> u64 {
+/// contiguous float64 (the common case: no copy), else converted once into
+/// `buf` (float32 -> float64 is a single vectorised loop) and hashed there.
+pub fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<f64>) -> u64 {
     if T::IS_LE_F64 {
         if let Some(values) = m.contiguous() {
             return xxh3_64(as_bytes(values));
         }
     }
+    if cfg!(target_endian = "big") {
+        let mut bytes = Vec::new();
+        append_rows(&mut bytes, m);
+        return xxh3_64(&bytes);
+    }
     buf.clear();
-    append_rows(buf, m);
-    xxh3_64(buf)
+    match m.contiguous() {
+        Some(values) => buf.extend(values.iter().map(|&v| v.as_f64())),
+        None => {
+            buf.reserve(m.rows() * m.cols());
+            for i in 0..m.rows() {
+                match m.row_slice(i) {
+                    Some(row) => buf.extend(row.iter().map(|&v| v.as_f64())),
+                    None => buf.extend((0..m.cols()).map(|j| m.get(i, j).as_f64())),
+                }
+            }
+        }
+    }
+    xxh3_64(as_bytes(buf))
 }
 
 /// The memory of `values`, which holds float64 in little-endian order

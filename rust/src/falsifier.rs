@@ -71,7 +71,7 @@ struct Leaves<'a, T> {
 
 impl<T: Value> Leaves<'_, T> {
     /// Hashes leaf `l` into `out` if it is a whole leaf of the chunk.
-    fn hash(&self, l: usize, out: &mut u64, buf: &mut Vec<u8>) {
+    fn hash(&self, l: usize, out: &mut u64, buf: &mut Vec<f64>) {
         if l < self.whole {
             let s = self.head + l * LEAF_ROWS;
             *out = leaf_digest(self.chunk.slice_rows(s, s + LEAF_ROWS), buf);
