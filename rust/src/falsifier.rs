@@ -258,7 +258,10 @@ impl Falsifier {
             let counts = &mut self.block_counts[..];
             // Slabs start on block boundaries: block k of this slab is block first_block + k of the chunk.
             let first_block = first / BLOCK_ROWS;
-            let hashing = (leaves.map(|l| (l, first_block)), &mut self.block_leaves[..n_blocks]);
+            let hashing = (
+                leaves.map(|l| (l, first_block)),
+                &mut self.block_leaves[..n_blocks],
+            );
             let base = self.n_instances + first as u64;
             let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
             // One hand-over to the pool per slab: waking it costs more than a

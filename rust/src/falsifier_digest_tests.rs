@@ -54,17 +54,26 @@ fn the_in_pass_digest_is_the_separate_pass_digest() {
     };
     for trial in 0..6 {
         let threads = 1 + trial % 3;
-        let mode = if trial % 2 == 0 { Mode::Screen } else { Mode::Diagnose };
+        let mode = if trial % 2 == 0 {
+            Mode::Screen
+        } else {
+            Mode::Diagnose
+        };
         let p = pool(threads);
         let mut f = falsifier(n_m, mode);
         let mut d = RowDigest::new();
         let mut s = 0;
         for step in chunking(rows, &mut state) {
-            f.update_digested(all.slice_rows(s, s + step), &p, &mut || false, &mut d).unwrap();
+            f.update_digested(all.slice_rows(s, s + step), &p, &mut || false, &mut d)
+                .unwrap();
             s += step;
             assert_eq!(d.n_rows(), s as u64);
         }
-        assert_eq!((d.blocks().to_vec(), d.partial()), want, "trial {trial}, {threads} threads");
+        assert_eq!(
+            (d.blocks().to_vec(), d.partial()),
+            want,
+            "trial {trial}, {threads} threads"
+        );
         assert_eq!(f.candidates(), &reference[..], "trial {trial}");
     }
 }
@@ -73,7 +82,9 @@ fn the_in_pass_digest_is_the_separate_pass_digest() {
 fn float32_and_column_major_chunks_digest_their_values() {
     let (rows, n_m) = (BLOCK_ROWS + 2 * LEAF_ROWS + 5, 4);
     let mut state = 77u64;
-    let c: Vec<f32> = (0..rows * n_m).map(|_| (uniform(&mut state) * 2.4 - 1.2) as f32).collect();
+    let c: Vec<f32> = (0..rows * n_m)
+        .map(|_| (uniform(&mut state) * 2.4 - 1.2) as f32)
+        .collect();
     let mut fortran = vec![0.0f64; rows * n_m]; // the same values, float64, Fortran order
     for i in 0..rows {
         for j in 0..n_m {
@@ -91,8 +102,10 @@ fn float32_and_column_major_chunks_digest_their_values() {
         let f32s = Matrix::row_major(&c, rows, n_m).unwrap();
         let f64s = Matrix::col_major(&fortran, rows, n_m).unwrap();
         for (s, e) in [(0, first), (first, first + second), (first + second, rows)] {
-            f.update_digested(f32s.slice_rows(s, e), &p, &mut || false, &mut f32_digest).unwrap();
-            g.update_digested(f64s.slice_rows(s, e), &p, &mut || false, &mut f64_digest).unwrap();
+            f.update_digested(f32s.slice_rows(s, e), &p, &mut || false, &mut f32_digest)
+                .unwrap();
+            g.update_digested(f64s.slice_rows(s, e), &p, &mut || false, &mut f64_digest)
+                .unwrap();
         }
         assert_eq!((f32_digest.blocks().to_vec(), f32_digest.partial()), want);
         assert_eq!((f64_digest.blocks().to_vec(), f64_digest.partial()), want);
@@ -108,7 +121,8 @@ fn an_interrupted_or_refused_chunk_leaves_the_digest_alone() {
     let p = pool(2);
     let mut f = falsifier(n_m, Mode::Diagnose);
     let mut d = RowDigest::new();
-    f.update_digested(m.slice_rows(0, 10), &p, &mut || false, &mut d).unwrap();
+    f.update_digested(m.slice_rows(0, 10), &p, &mut || false, &mut d)
+        .unwrap();
     let before = (d.n_rows(), d.blocks().to_vec(), d.partial());
     let mut asked = 0;
     let mut second = || {
@@ -121,10 +135,15 @@ fn an_interrupted_or_refused_chunk_leaves_the_digest_alone() {
     // A digest of another width refuses the chunk before the falsifier takes it.
     let wide = vec![0.5; 3 * 10];
     let mut other = RowDigest::new();
-    other.update(Matrix::row_major(&wide, 10, 3).unwrap(), &p).unwrap();
-    assert!(f.update_digested(m.slice_rows(10, 20), &p, &mut || false, &mut other).is_err());
+    other
+        .update(Matrix::row_major(&wide, 10, 3).unwrap(), &p)
+        .unwrap();
+    assert!(f
+        .update_digested(m.slice_rows(10, 20), &p, &mut || false, &mut other)
+        .is_err());
     assert_eq!(f.n_instances(), 10);
     // Resumed from the same row, the digest is the one of a single pass.
-    f.update_digested(m.slice_rows(10, rows), &p, &mut || false, &mut d).unwrap();
+    f.update_digested(m.slice_rows(10, rows), &p, &mut || false, &mut d)
+        .unwrap();
     assert_eq!((d.blocks().to_vec(), d.partial()), separate(m));
 }
