@@ -95,27 +95,74 @@ impl RowDigest {
 
     /// Feeds the next rows (any strides, float64 or float32).
     pub fn update<T: Value>(&mut self, m: Matrix<'_, T>, pool: &ThreadPool) -> Result<()> {
-        let (rows, cols) = (m.rows(), m.cols());
-        if rows == 0 {
-            return Ok(());
-        }
+        self.check_width(m.cols())?;
+        let (head, whole) = self.leaves_in(m.rows());
+        // Whole leaves inside this chunk, in parallel.
+        let digests: Vec<u64> = pool.install(|| {
+            (0..whole)
+                .into_par_iter()
+                .map_init(Vec::new, |buf, l| {
+                    let s = head + l * LEAF_ROWS;
+                    leaf_digest(m.slice_rows(s, s + LEAF_ROWS), buf)
+                })
+                .collect()
+        });
+        self.absorb(m, &digests);
+        Ok(())
+    }
+
+    /// An error unless chunks of `cols` columns may follow those fed so far.
+    pub fn check_width(&self, cols: usize) -> Result<()> {
         match self.cols {
-            None => self.cols = Some(cols),
-            Some(c) if c != cols => {
-                return Err(EdmfError::invalid(
-                    "rows",
-                    format!("a chunk of {cols} columns after chunks of {c}"),
-                ))
-            }
-            Some(_) => {}
+            Some(c) if c != cols => Err(EdmfError::invalid(
+                "rows",
+                format!("a chunk of {cols} columns after chunks of {c}"),
+            )),
+            _ => Ok(()),
         }
-        let mut i = 0;
+    }
+
+    /// Where the whole leaves of the next `rows` rows lie: `(head, whole)`,
+    /// leaf `l` being rows `head + l * LEAF_ROWS ..` of them (the first
+    /// `head` rows complete the leaf the previous chunk left open).
+    pub fn leaves_in(&self, rows: usize) -> (usize, usize) {
+        let head = if self.pending_rows > 0 {
+            (LEAF_ROWS - self.pending_rows).min(rows)
+        } else {
+            0
+        };
+        (head, (rows - head) / LEAF_ROWS)
+    }
+
+    /// Feeds the next rows whose whole leaves the caller has already hashed
+    /// with [`leaf_digest`] (e.g. while the rows were in cache for another
+    /// pass): `leaves[l]` is the digest of leaf `l` as placed by
+    /// [`leaves_in`](Self::leaves_in). Same result as [`update`](Self::update).
+    pub fn update_hashed<T: Value>(&mut self, m: Matrix<'_, T>, leaves: &[u64]) -> Result<()> {
+        self.check_width(m.cols())?;
+        let whole = self.leaves_in(m.rows()).1;
+        if leaves.len() != whole {
+            return Err(EdmfError::invalid(
+                "leaves",
+                format!("{whole} leaf digests for {} rows, got {}", m.rows(), leaves.len()),
+            ));
+        }
+        self.absorb(m, leaves);
+        Ok(())
+    }
+
+    /// Takes in rows of a checked width, given the digests of their whole leaves.
+    fn absorb<T: Value>(&mut self, m: Matrix<'_, T>, leaves: &[u64]) {
+        let rows = m.rows();
+        if rows == 0 {
+            return;
+        }
+        self.cols = Some(m.cols());
+        let (head, whole) = self.leaves_in(rows);
         // Complete the leaf the previous chunk left open.
-        if self.pending_rows > 0 {
-            let take = (LEAF_ROWS - self.pending_rows).min(rows);
-            append_rows(&mut self.pending, m.slice_rows(0, take));
-            self.pending_rows += take;
-            i = take;
+        if head > 0 {
+            append_rows(&mut self.pending, m.slice_rows(0, head));
+            self.pending_rows += head;
             if self.pending_rows == LEAF_ROWS {
                 let d = xxh3_64(&self.pending);
                 self.pending.clear();
@@ -123,31 +170,16 @@ impl RowDigest {
                 self.push_leaf(d);
             }
         }
-        // Whole leaves inside this chunk, in parallel.
-        let whole = (rows - i) / LEAF_ROWS;
-        if whole > 0 {
-            let first = i;
-            let digests: Vec<u64> = pool.install(|| {
-                (0..whole)
-                    .into_par_iter()
-                    .map_init(Vec::new, |buf, l| {
-                        let s = first + l * LEAF_ROWS;
-                        leaf_digest(m.slice_rows(s, s + LEAF_ROWS), buf)
-                    })
-                    .collect()
-            });
-            for d in digests {
-                self.push_leaf(d);
-            }
-            i += whole * LEAF_ROWS;
+        for &d in &leaves[..whole] {
+            self.push_leaf(d);
         }
         // The rest opens a new leaf.
+        let i = head + whole * LEAF_ROWS;
         if i < rows {
             append_rows(&mut self.pending, m.slice_rows(i, rows));
             self.pending_rows += rows - i;
         }
         self.n_rows += rows as u64;
-        Ok(())
     }
 
     fn push_leaf(&mut self, digest: u64) {
@@ -170,17 +202,34 @@ fn block_digest(cols: usize, rows: usize, leaves: &[u64]) -> u128 {
     xxh3_128(&bytes)
 }
 
-/// xxh3-64 of a whole leaf; hashed in place when it is contiguous float64
-/// (the common case: no copy), else through `buf`.
-fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<u8>) -> u64 {
+/// xxh3-64 of a whole leaf ([`LEAF_ROWS`] rows); hashed in place when it is
+/// contiguous float64 (the common case: no copy), else converted once into
+/// `buf` (float32 -> float64 is a single vectorised loop) and hashed there.
+pub fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<f64>) -> u64 {
     if T::IS_LE_F64 {
         if let Some(values) = m.contiguous() {
             return xxh3_64(as_bytes(values));
         }
     }
+    if cfg!(target_endian = "big") {
+        let mut bytes = Vec::new();
+        append_rows(&mut bytes, m);
+        return xxh3_64(&bytes);
+    }
     buf.clear();
-    append_rows(buf, m);
-    xxh3_64(buf)
+    match m.contiguous() {
+        Some(values) => buf.extend(values.iter().map(|&v| v.as_f64())),
+        None => {
+            buf.reserve(m.rows() * m.cols());
+            for i in 0..m.rows() {
+                match m.row_slice(i) {
+                    Some(row) => buf.extend(row.iter().map(|&v| v.as_f64())),
+                    None => buf.extend((0..m.cols()).map(|j| m.get(i, j).as_f64())),
+                }
+            }
+        }
+    }
+    xxh3_64(as_bytes(buf))
 }
 
 /// The memory of `values`, which holds float64 in little-endian order

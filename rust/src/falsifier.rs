@@ -5,7 +5,13 @@
 //! Work inside a chunk is split into slabs (about four million predictions). The
 //! caller's `stop` check runs between slabs on the calling thread, which is how
 //! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
+//!
+//! A checkpointed run also needs the content digest of every row (see
+//! [`crate::digest`]); `update_digested` hashes each 1024-row leaf in the task
+//! that has just screened the matching kernel block, while the rows are still
+//! in that core's cache, instead of reading the whole chunk from memory again.
 
+use crate::digest::{leaf_digest, RowDigest, Value, LEAF_ROWS};
 use crate::error::{EdmfError, Result};
 use crate::kernel::{diagnose, screen, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -21,6 +27,8 @@ const SLAB_ELEMENTS: usize = 1 << 22;
 /// Rows diagnosed to learn the screening order: enough to rank the sensors,
 /// few enough that the slower full visit costs nothing measurable.
 const LEARN_ROWS: usize = 16 * BLOCK_ROWS;
+// Kernel block k of a chunk hashes digest leaf k (the leaf starting in it).
+const _: () = assert!(BLOCK_ROWS == LEAF_ROWS);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -46,6 +54,29 @@ pub struct Falsifier {
     scratch: Vec<u32>,
     /// Candidates found by each block of the current slab.
     block_counts: Vec<usize>,
+    /// Digest of the leaf starting in each block of the current slab.
+    block_leaves: Vec<u64>,
+    /// Digests of the whole leaves of the current chunk (`update_digested`).
+    chunk_leaves: Vec<u64>,
+}
+
+/// Where a chunk's digest leaves lie (see `RowDigest::leaves_in`): leaf `l`
+/// is rows `head + l * LEAF_ROWS ..` of `chunk`, for `l < whole`.
+#[derive(Clone, Copy)]
+struct Leaves<'a, T> {
+    chunk: Matrix<'a, T>,
+    head: usize,
+    whole: usize,
+}
+
+impl<T: Value> Leaves<'_, T> {
+    /// Hashes leaf `l` into `out` if it is a whole leaf of the chunk.
+    fn hash(&self, l: usize, out: &mut u64, buf: &mut Vec<f64>) {
+        if l < self.whole {
+            let s = self.head + l * LEAF_ROWS;
+            *out = leaf_digest(self.chunk.slice_rows(s, s + LEAF_ROWS), buf);
+        }
+    }
 }
 
 impl Falsifier {
@@ -80,6 +111,8 @@ impl Falsifier {
             violations: Vec::new(),
             scratch: Vec::new(),
             block_counts: Vec::new(),
+            block_leaves: Vec::new(),
+            chunk_leaves: Vec::new(),
         })
     }
 
@@ -121,11 +154,35 @@ impl Falsifier {
     }
 
     /// Falsifies the next `chunk` of instances (rows; one column per sensor).
-    pub fn update<T: Prediction>(
+    pub fn update<T: Prediction + Value>(
         &mut self,
         chunk: Matrix<'_, T>,
         pool: &ThreadPool,
         stop: &mut dyn FnMut() -> bool,
+    ) -> Result<()> {
+        self.update_with(chunk, pool, stop, None)
+    }
+
+    /// Like [`update`](Self::update), and feeds the chunk to `digest` in the
+    /// same pass (the digest is the one `digest.update(chunk)` gives, whatever
+    /// the chunking, threads or dtype). An interrupted chunk leaves no trace
+    /// in the digest either.
+    pub fn update_digested<T: Prediction + Value>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        stop: &mut dyn FnMut() -> bool,
+        digest: &mut RowDigest,
+    ) -> Result<()> {
+        self.update_with(chunk, pool, stop, Some(digest))
+    }
+
+    fn update_with<T: Prediction + Value>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        stop: &mut dyn FnMut() -> bool,
+        digest: Option<&mut RowDigest>,
     ) -> Result<()> {
         let n_m = self.n_sensors();
         if chunk.cols() != n_m {
@@ -137,11 +194,25 @@ impl Falsifier {
                 ),
             ));
         }
+        let leaves = match &digest {
+            Some(d) => {
+                d.check_width(chunk.cols())?; // before any work: a chunk is taken whole or not at all
+                let (head, whole) = d.leaves_in(chunk.rows());
+                self.chunk_leaves.clear();
+                reserve(&mut self.chunk_leaves, whole, "leaf digests")?;
+                self.chunk_leaves.resize(whole, 0);
+                Some(Leaves { chunk, head, whole })
+            }
+            None => None,
+        };
         let (kept_candidates, kept_violations) = (self.candidates.len(), self.violations.len());
-        match self.falsify_slabs(chunk, pool, stop) {
+        match self.falsify_slabs(chunk, pool, stop, leaves) {
             Ok(chunk_tally) => {
                 self.tally.add(&chunk_tally);
                 self.n_instances += chunk.rows() as u64;
+                if let Some(d) = digest {
+                    d.update_hashed(chunk, &self.chunk_leaves)?; // width checked above: cannot fail
+                }
                 Ok(())
             }
             Err(e) => {
@@ -155,11 +226,12 @@ impl Falsifier {
     }
 
     /// The slabs of one chunk; the chunk's tally, or the error that stopped it.
-    fn falsify_slabs<T: Prediction>(
+    fn falsify_slabs<T: Prediction + Value>(
         &mut self,
         chunk: Matrix<'_, T>,
         pool: &ThreadPool,
         stop: &mut dyn FnMut() -> bool,
+        leaves: Option<Leaves<'_, T>>,
     ) -> Result<Tally> {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
         let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
@@ -180,8 +252,16 @@ impl Falsifier {
                 self.scratch.resize(last - first, 0);
             }
             let out = &mut self.scratch[..last - first];
-            self.block_counts.resize(out.len().div_ceil(BLOCK_ROWS), 0);
+            let n_blocks = out.len().div_ceil(BLOCK_ROWS);
+            self.block_counts.resize(n_blocks, 0);
+            self.block_leaves.resize(n_blocks, 0);
             let counts = &mut self.block_counts[..];
+            // Slabs start on block boundaries: block k of this slab is block first_block + k of the chunk.
+            let first_block = first / BLOCK_ROWS;
+            let hashing = (
+                leaves.map(|l| (l, first_block)),
+                &mut self.block_leaves[..n_blocks],
+            );
             let base = self.n_instances + first as u64;
             let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
             // One hand-over to the pool per slab: waking it costs more than a
@@ -189,13 +269,18 @@ impl Falsifier {
             let tally = pool.install(|| {
                 let tally = match (self.mode, plan) {
                     (Mode::Screen, Some(plan)) => {
-                        screen_parallel(slab, bounds, plan, out, counts);
+                        screen_parallel(slab, bounds, plan, out, counts, hashing);
                         None
                     }
-                    _ => Some(diagnose_parallel(slab, bounds, out, counts)),
+                    _ => Some(diagnose_parallel(slab, bounds, out, counts, hashing)),
                 };
                 collect_candidates(out, counts, base, candidates).map(|()| tally)
             })?;
+            if let Some(l) = leaves {
+                // The leaves that start in this slab's blocks, into their place in the chunk.
+                let (from, to) = (first_block.min(l.whole), (first_block + n_blocks).min(l.whole));
+                self.chunk_leaves[from..to].copy_from_slice(&self.block_leaves[..to - from]);
+            }
             match (self.mode, tally) {
                 (Mode::Diagnose, Some(t)) => {
                     chunk_tally.add(&t);
@@ -277,172 +362,66 @@ fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
         .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
-/// Runs in the caller's pool; each block's candidate count into `counts`.
-fn diagnose_parallel<T: Prediction>(
+/// When hashing: the chunk's leaves and the slab's first block in the chunk;
+/// and one digest slot per block of the slab (left alone when not hashing).
+type Hashing<'a, 'b, T> = (Option<(Leaves<'a, T>, usize)>, &'b mut [u64]);
+
+/// Runs in the caller's pool; each block's candidate count into `counts`,
+/// and, when hashing, the digest of the leaf starting in it into its slot.
+fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],
     counts: &mut [usize],
+    hashing: Hashing<'_, '_, T>,
 ) -> Tally {
     let n_m = b.len();
+    let (leaves, slots) = hashing;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
+        .zip(slots.par_iter_mut())
         .enumerate()
         .fold(
-            || Tally::zeros(n_m),
-            |mut t, (k, (o, count))| {
+            || (Tally::zeros(n_m), Vec::new()),
+            |(mut t, mut buf), (k, ((o, count), slot))| {
                 let first = k * BLOCK_ROWS;
                 diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
                 *count = candidates_in(o);
-                t
+                if let Some((l, first_block)) = &leaves {
+                    l.hash(first_block + k, slot, &mut buf); // rows just read: in this core's cache
+                }
+                (t, buf)
             },
         )
+        .map(|(t, _)| t)
         .reduce(|| Tally::zeros(n_m), Tally::merge)
 }
 
-/// Runs in the caller's pool; each block's candidate count into `counts`.
-fn screen_parallel<T: Prediction>(
+/// Runs in the caller's pool; each block's candidate count into `counts`,
+/// and, when hashing, the digest of the leaf starting in it into its slot.
+fn screen_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     plan: &ScreenPlan,
     out: &mut [u32],
     counts: &mut [usize],
+    hashing: Hashing<'_, '_, T>,
 ) {
+    let (leaves, slots) = hashing;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
+        .zip(slots.par_iter_mut())
         .enumerate()
-        .for_each(|(k, (o, count))| {
+        .for_each_init(Vec::new, |buf, (k, ((o, count), slot))| {
             let first = k * BLOCK_ROWS;
             screen(m.slice_rows(first, first + o.len()), b, plan, o);
             *count = candidates_in(o);
+            if let Some((l, first_block)) = &leaves {
+                l.hash(first_block + k, slot, buf); // rows just read: in this core's cache
+            }
         })
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::testing::uniform;
-
-    fn pool(n: usize) -> ThreadPool {
-        rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
-    }
-
-    /// Deterministic pseudo-random predictions around the measurements.
-    fn predictions(n: usize, n_m: usize) -> Vec<f64> {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        (0..n * n_m).map(|_| uniform(&mut state) * 2.2 - 1.1).collect()
-    }
-
-    fn run(data: &[f64], n_m: usize, chunk_rows: usize, threads: usize, mode: Mode) -> Falsifier {
-        let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
-        let keep = mode == Mode::Diagnose;
-        let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, keep).unwrap();
-        let p = pool(threads);
-        for chunk in data.chunks(chunk_rows * n_m) {
-            let m = Matrix::row_major(chunk, chunk.len() / n_m, n_m).unwrap();
-            f.update(m, &p, &mut || false).unwrap();
-        }
-        f
-    }
-
-    #[test]
-    fn result_is_independent_of_chunking_threads_and_mode() {
-        let (n, n_m) = (20_000, 3);
-        let data = predictions(n, n_m);
-        let a = run(&data, n_m, n, 1, Mode::Diagnose);
-        let b = run(&data, n_m, 777, 2, Mode::Diagnose);
-        let c = run(&data, n_m, 1500, 2, Mode::Screen);
-        // One chunk: the learning slab, then screening slabs within the chunk.
-        let d = run(&data, n_m, n, 2, Mode::Screen);
-        assert!(n > LEARN_ROWS);
-        assert_eq!(a.n_instances(), n as u64);
-        assert_eq!(a.candidates(), b.candidates());
-        assert_eq!(a.candidates(), c.candidates());
-        assert_eq!(a.candidates(), d.candidates());
-        assert_eq!(a.tally(), b.tally());
-        assert_eq!(a.violations(), b.violations());
-        assert!(c.tally().is_none());
-        // Brute force: a candidate has every residual within [-1, 1].
-        let expected: Vec<u64> = (0..n)
-            .filter(|&i| data[i * n_m..(i + 1) * n_m].iter().all(|r| r.abs() <= 1.0))
-            .map(|i| i as u64)
-            .collect();
-        assert!(!expected.is_empty() && expected.len() < n);
-        assert_eq!(a.candidates(), &expected[..]);
-    }
-
-    #[test]
-    fn whole_blocks_of_candidates_and_partial_ones_are_collected() {
-        // Block 0 all candidates, block 1 all but row 1500, a short last block all
-        // candidates; then a second chunk with none.
-        let (n, n_m) = (2 * BLOCK_ROWS + 952, 2);
-        let mut data = vec![0.5; n * n_m];
-        data[1500 * n_m + 1] = 3.0;
-        for mode in [Mode::Diagnose, Mode::Screen] {
-            let f = run(&data, n_m, n, 2, mode);
-            let expected: Vec<u64> = (0..n as u64).filter(|&i| i != 1500).collect();
-            assert_eq!(f.candidates(), &expected[..]);
-        }
-        let mut f = run(&data, n_m, n, 1, Mode::Screen);
-        let none = vec![5.0; 100 * n_m];
-        f.update(Matrix::row_major(&none, 100, n_m).unwrap(), &pool(2), &mut || {
-            false
-        })
-        .unwrap();
-        assert_eq!(f.candidates().len(), n - 1);
-        assert_eq!(f.n_instances(), (n + 100) as u64);
-    }
-
-    #[test]
-    fn the_learning_slab_is_no_longer_than_a_slab() {
-        // 1024 sensors: a slab is 4096 rows, shorter than LEARN_ROWS; Ctrl-C
-        // must be polled as often while the screening order is learned.
-        let (rows, n_m) = (LEARN_ROWS, 1024);
-        let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
-        let data = vec![0f32; rows * n_m];
-        let mut polls = [0; 2];
-        for (k, mode) in [Mode::Diagnose, Mode::Screen].into_iter().enumerate() {
-            let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, false).unwrap();
-            let m = Matrix::row_major(&data, rows, n_m).unwrap();
-            f.update(m, &pool(2), &mut || {
-                polls[k] += 1;
-                false
-            })
-            .unwrap();
-        }
-        assert_eq!(polls, [rows * n_m / SLAB_ELEMENTS; 2]);
-    }
-
-    #[test]
-    fn wrong_width_is_an_error_and_interruption_leaves_no_trace() {
-        let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
-        let mut f = Falsifier::new(&[0.0, 0.0], &thr, Mode::Diagnose, true).unwrap();
-        let p = pool(1);
-        let bad = [0.0; 3];
-        assert!(f
-            .update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false)
-            .is_err());
-        // Stopped after the first slab of the chunk: its candidates go too.
-        let rows = SLAB_ELEMENTS; // two slabs of two sensors
-        let data = vec![0.0; 2 * rows];
-        let m = Matrix::row_major(&data, rows, 2).unwrap();
-        let mut asked = 0;
-        let mut second = || {
-            asked += 1;
-            asked == 2
-        };
-        assert_eq!(f.update(m, &p, &mut second), Err(EdmfError::Interrupted));
-        assert_eq!(asked, 2);
-        assert_eq!(f.n_instances(), 0);
-        assert!(f.candidates().is_empty());
-        assert_eq!(f.violations().unwrap().len(), 0);
-    }
-
-    #[test]
-    fn measurements_must_match_and_be_finite() {
-        let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
-        assert!(Falsifier::new(&[0.0], &thr, Mode::Diagnose, false).is_err());
-        assert!(Falsifier::new(&[0.0, f64::INFINITY], &thr, Mode::Diagnose, false).is_err());
-        assert!(Falsifier::new(&[0.0, 0.0], &thr, Mode::Screen, true).is_err());
-    }
-}
+#[path = "falsifier_tests.rs"]
+mod tests;

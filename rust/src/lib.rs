@@ -17,6 +17,8 @@ pub mod digest;
 pub mod ellipse;
 pub mod error;
 pub mod falsifier;
+#[cfg(test)]
+mod falsifier_digest_tests;
 pub mod kernel;
 pub mod matrix;
 pub mod screening;

@@ -96,7 +96,9 @@ impl<'a, T: Copy> Matrix<'a, T> {
             // SAFETY: a prefetch never faults and `p` points into `data`.
             #[allow(unused_unsafe)]
             unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p as *const T as *const i8)
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    p as *const T as *const i8,
+                )
             }
         }
         #[cfg(not(target_arch = "x86_64"))]

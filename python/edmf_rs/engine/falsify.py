@@ -140,8 +140,10 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
             try:
                 for chunk in chunks:  # Eq. 8, chunk after chunk, in Rust with the GIL released
                     first = run.start + int(acc.n_instances)
-                    acc.update(chunk)
-                    run.done(first, chunk)
+                    digest = run.digest(first)  # hashed by the falsifier, leaf by leaf while in cache
+                    acc.update(chunk, digest=digest)
+                    if digest is None:
+                        run.done(first, chunk)
                     progress_bar.update(chunk.shape[0])
                     if run.due():
                         run.save(acc)

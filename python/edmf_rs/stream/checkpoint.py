@@ -233,10 +233,15 @@ class Checkpoint:
 
     def record(self, first: int, rows: np.ndarray) -> None:
         """Instances ``first ..`` (``rows``) were done in this session."""
+        self.digest_from(first).update(digestible(rows))
+
+    def digest_from(self, first: int):
+        """The digest (fed every instance before ``first``) that instances
+        ``first ..``, done in this session, are fed to next."""
         if first != self.rows.n_rows:
             self.check_verified()
             raise RuntimeError(f"checkpoint: rows from instance {first} given after {self.rows.n_rows}")
-        self.rows.update(digestible(rows))
+        return self.rows
 
     def confirm_finished(self, remaining) -> None:
         """Before a finished run's saved result is returned: ``remaining`` is the

@@ -13,7 +13,7 @@ fn hex(d: u128) -> String {
 /// Digests of the rows fed so far, one per fixed block of instances.
 #[pyclass(module = "edmf_rs._core")]
 pub struct RowDigest {
-    inner: edmf_core::digest::RowDigest,
+    pub(crate) inner: edmf_core::digest::RowDigest,
 }
 
 #[pymethods]

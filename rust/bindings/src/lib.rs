@@ -5,8 +5,8 @@
 //! `ValueError`. Argument checking that needs Python types lives in the Python
 //! package; the core re-checks everything it relies on.
 
-mod digest;
 mod design;
+mod digest;
 mod pool;
 mod screening;
 mod views;
@@ -118,16 +118,33 @@ impl Falsifier {
         Ok(Falsifier { inner })
     }
 
-    /// Falsifies the next chunk (float64 or float32, any positive strides).
-    fn update(&mut self, py: Python<'_>, chunk: &Bound<'_, PyAny>) -> PyResult<()> {
+    /// Falsifies the next chunk (float64 or float32, any positive strides);
+    /// with `digest` (a `RowDigest`), also feeds the chunk to it in the same
+    /// pass, as `digest.update(chunk)` would (the chunk is taken by both or
+    /// by neither).
+    #[pyo3(signature = (chunk, digest=None))]
+    fn update(
+        &mut self,
+        py: Python<'_>,
+        chunk: &Bound<'_, PyAny>,
+        digest: Option<PyRefMut<'_, digest::RowDigest>>,
+    ) -> PyResult<()> {
         let pool = pool::current()?;
         let inner = &mut self.inner;
+        let mut digest = digest;
+        let rows = digest.as_deref_mut().map(|d| &mut d.inner);
         if let Ok(a) = chunk.extract::<PyReadonlyArray2<'_, f64>>() {
             let view = matrix_view(&a, "predictions")?;
-            detached(py, |stop| inner.update(view, &pool, stop))
+            detached(py, |stop| match rows {
+                Some(d) => inner.update_digested(view, &pool, stop, d),
+                None => inner.update(view, &pool, stop),
+            })
         } else if let Ok(a) = chunk.extract::<PyReadonlyArray2<'_, f32>>() {
             let view = matrix_view(&a, "predictions")?;
-            detached(py, |stop| inner.update(view, &pool, stop))
+            detached(py, |stop| match rows {
+                Some(d) => inner.update_digested(view, &pool, stop, d),
+                None => inner.update(view, &pool, stop),
+            })
         } else {
             Err(pyo3::exceptions::PyTypeError::new_err(
                 "predictions: expected a 2-D float64 or float32 NumPy array chunk",

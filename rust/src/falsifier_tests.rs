@@ -1,0 +1,128 @@
+//! Tests of the streaming accumulator: results independent of chunking,
+//! threads and mode; candidate collection; interruption leaves no trace.
+
+use super::*;
+use crate::testing::uniform;
+
+fn pool(n: usize) -> ThreadPool {
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
+}
+
+/// Deterministic pseudo-random predictions around the measurements.
+fn predictions(n: usize, n_m: usize) -> Vec<f64> {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    (0..n * n_m).map(|_| uniform(&mut state) * 2.2 - 1.1).collect()
+}
+
+fn run(data: &[f64], n_m: usize, chunk_rows: usize, threads: usize, mode: Mode) -> Falsifier {
+    let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
+    let keep = mode == Mode::Diagnose;
+    let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, keep).unwrap();
+    let p = pool(threads);
+    for chunk in data.chunks(chunk_rows * n_m) {
+        let m = Matrix::row_major(chunk, chunk.len() / n_m, n_m).unwrap();
+        f.update(m, &p, &mut || false).unwrap();
+    }
+    f
+}
+
+#[test]
+fn result_is_independent_of_chunking_threads_and_mode() {
+    let (n, n_m) = (20_000, 3);
+    let data = predictions(n, n_m);
+    let a = run(&data, n_m, n, 1, Mode::Diagnose);
+    let b = run(&data, n_m, 777, 2, Mode::Diagnose);
+    let c = run(&data, n_m, 1500, 2, Mode::Screen);
+    // One chunk: the learning slab, then screening slabs within the chunk.
+    let d = run(&data, n_m, n, 2, Mode::Screen);
+    assert!(n > LEARN_ROWS);
+    assert_eq!(a.n_instances(), n as u64);
+    assert_eq!(a.candidates(), b.candidates());
+    assert_eq!(a.candidates(), c.candidates());
+    assert_eq!(a.candidates(), d.candidates());
+    assert_eq!(a.tally(), b.tally());
+    assert_eq!(a.violations(), b.violations());
+    assert!(c.tally().is_none());
+    // Brute force: a candidate has every residual within [-1, 1].
+    let expected: Vec<u64> = (0..n)
+        .filter(|&i| data[i * n_m..(i + 1) * n_m].iter().all(|r| r.abs() <= 1.0))
+        .map(|i| i as u64)
+        .collect();
+    assert!(!expected.is_empty() && expected.len() < n);
+    assert_eq!(a.candidates(), &expected[..]);
+}
+
+#[test]
+fn whole_blocks_of_candidates_and_partial_ones_are_collected() {
+    // Block 0 all candidates, block 1 all but row 1500, a short last block all
+    // candidates; then a second chunk with none.
+    let (n, n_m) = (2 * BLOCK_ROWS + 952, 2);
+    let mut data = vec![0.5; n * n_m];
+    data[1500 * n_m + 1] = 3.0;
+    for mode in [Mode::Diagnose, Mode::Screen] {
+        let f = run(&data, n_m, n, 2, mode);
+        let expected: Vec<u64> = (0..n as u64).filter(|&i| i != 1500).collect();
+        assert_eq!(f.candidates(), &expected[..]);
+    }
+    let mut f = run(&data, n_m, n, 1, Mode::Screen);
+    let none = vec![5.0; 100 * n_m];
+    f.update(Matrix::row_major(&none, 100, n_m).unwrap(), &pool(2), &mut || {
+        false
+    })
+    .unwrap();
+    assert_eq!(f.candidates().len(), n - 1);
+    assert_eq!(f.n_instances(), (n + 100) as u64);
+}
+
+#[test]
+fn the_learning_slab_is_no_longer_than_a_slab() {
+    // 1024 sensors: a slab is 4096 rows, shorter than LEARN_ROWS; Ctrl-C
+    // must be polled as often while the screening order is learned.
+    let (rows, n_m) = (LEARN_ROWS, 1024);
+    let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
+    let data = vec![0f32; rows * n_m];
+    let mut polls = [0; 2];
+    for (k, mode) in [Mode::Diagnose, Mode::Screen].into_iter().enumerate() {
+        let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, false).unwrap();
+        let m = Matrix::row_major(&data, rows, n_m).unwrap();
+        f.update(m, &pool(2), &mut || {
+            polls[k] += 1;
+            false
+        })
+        .unwrap();
+    }
+    assert_eq!(polls, [rows * n_m / SLAB_ELEMENTS; 2]);
+}
+
+#[test]
+fn wrong_width_is_an_error_and_interruption_leaves_no_trace() {
+    let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
+    let mut f = Falsifier::new(&[0.0, 0.0], &thr, Mode::Diagnose, true).unwrap();
+    let p = pool(1);
+    let bad = [0.0; 3];
+    assert!(f
+        .update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false)
+        .is_err());
+    // Stopped after the first slab of the chunk: its candidates go too.
+    let rows = SLAB_ELEMENTS; // two slabs of two sensors
+    let data = vec![0.0; 2 * rows];
+    let m = Matrix::row_major(&data, rows, 2).unwrap();
+    let mut asked = 0;
+    let mut second = || {
+        asked += 1;
+        asked == 2
+    };
+    assert_eq!(f.update(m, &p, &mut second), Err(EdmfError::Interrupted));
+    assert_eq!(asked, 2);
+    assert_eq!(f.n_instances(), 0);
+    assert!(f.candidates().is_empty());
+    assert_eq!(f.violations().unwrap().len(), 0);
+}
+
+#[test]
+fn measurements_must_match_and_be_finite() {
+    let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
+    assert!(Falsifier::new(&[0.0], &thr, Mode::Diagnose, false).is_err());
+    assert!(Falsifier::new(&[0.0, f64::INFINITY], &thr, Mode::Diagnose, false).is_err());
+    assert!(Falsifier::new(&[0.0, 0.0], &thr, Mode::Screen, true).is_err());
+}
