@@ -81,3 +81,23 @@ def test_stub_docstrings_match_the_extension():
     assert {"get_num_threads", "set_num_threads"} <= set(documented)
     for name, text in documented.items():
         assert inspect.cleandoc(getattr(edmf_rs._core, name).__doc__) == text, name
+
+
+ROOMS = ("edmf_rs.adaptive", "edmf_rs.design", "edmf_rs.simulators")
+ROOM_OBJECTS = {f"{room}.{name}": getattr(__import__(room, fromlist=["_"]), name)
+                for room in ROOMS for name in __import__(room, fromlist=["_"]).__all__}
+
+
+@pytest.mark.parametrize("name", sorted(n for n, o in ROOM_OBJECTS.items() if inspect.isclass(o) or inspect.isfunction(o)))
+def test_every_public_name_of_the_rooms_has_a_full_docstring(name):
+    """The rooms' public functions and classes (their ``__all__``) follow the same rule."""
+    obj = ROOM_OBJECTS[name]
+    doc = obj.__doc__ or ""
+    found = sections(doc)
+    assert "Examples" in found and ">>>" in doc, f"{name}: no Examples section with a doctest"
+    if inspect.isclass(obj):
+        assert found & {"Parameters", "Attributes"}, f"{name}: no Parameters or Attributes section"
+    else:
+        if takes_arguments(obj):
+            assert "Parameters" in found, f"{name}: no Parameters section"
+        assert "Returns" in found, f"{name}: no Returns section"

@@ -32,17 +32,44 @@ def _lbfgs(objective, initial, bounds):
 
 
 class EmulatorError(ValueError):
-    """An emulator that cannot be fitted (NaN outputs, too few runs, a singular kernel)."""
+    """An emulator that cannot be fitted (NaN outputs, too few runs, a singular kernel).
+
+    A ``ValueError``; its message says which sensor and what to change.
+
+    Attributes
+    ----------
+    args : tuple of str
+        The message.
+
+    Examples
+    --------
+    >>> issubclass(EmulatorError, ValueError)
+    True
+    """
 
 
 @dataclass(frozen=True, eq=False)
 class Validation:
     """Leave-one-out check of every sensor's emulator (Rasmussen & Williams 2006, Eq. 5.12).
 
-    ``error`` is the root-mean-square leave-one-out error relative to the
-    sensor's threshold width; ``coverage`` the share of runs whose left-out
-    output lies within ``c`` leave-one-out standard deviations of the
-    prediction (what the screening relies on); ``passed`` per sensor.
+    Attributes
+    ----------
+    error : numpy.ndarray
+        Per sensor, the root-mean-square leave-one-out error relative to the
+        sensor's threshold width.
+    coverage : numpy.ndarray
+        Per sensor, the share of runs whose left-out output lies within ``c``
+        leave-one-out standard deviations of the prediction (what the
+        screening relies on).
+    passed : numpy.ndarray of bool
+        Per sensor, whether the emulator passed; ``ok``: all of them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = Validation(np.array([0.1, 0.3]), np.array([0.97, 0.80]), np.array([True, False]))
+    >>> v.ok
+    False
     """
 
     error: np.ndarray

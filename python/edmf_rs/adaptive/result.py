@@ -43,6 +43,15 @@ class WaveRecord:
         Up to a few hundred kept points (parameter units), for plots.
     problems
         Emulator warnings (constant outputs, fit failures) in words.
+    
+    Examples
+    --------
+    >>> import numpy as np, edmf_rs
+    >>> model = lambda t: np.column_stack([t[:, 0] + t[:, 1], t[:, 0] - t[:, 1]])
+    >>> t = edmf_rs.Thresholds([-0.1, -0.1], [0.1, 0.1])
+    >>> r = edmf_rs.adaptive_falsify(model, [[0, 1], [0, 1]], [1.0, 0.0], t, budget=120, n_screen=4096)
+    >>> r.waves[0].kind, r.waves[-1].kind
+    ('initial', 'final')
     """
 
     index: int
@@ -80,10 +89,29 @@ class WaveRecord:
 class AdaptiveResult:
     """The outcome of :func:`edmf_rs.adaptive_falsify`.
 
-    ``falsification`` is Eq. 8 over every real run (``run_parameters``,
-    ``run_predictions``, in the order run; ``run_wave`` says which wave); its
-    candidates are the candidate model set. ``waves`` records each wave,
-    ``stop_reason`` why the waves stopped.
+    Attributes
+    ----------
+    parameters : tuple of Parameter
+        The parameter domains.
+    falsification : FalsificationResult
+        Eq. 8 over every real run; its candidates are the candidate model set.
+    waves : tuple of WaveRecord
+        Each wave: runs spent, kept share, emulator validation.
+    run_parameters, run_predictions : numpy.ndarray
+        Every real run, in the order run; ``run_wave`` says which wave.
+    stop_reason : str
+        Why the waves stopped (converged, budget, ...).
+    n_screen, c : int, float
+        Screening sample size and the emulator margin in standard deviations.
+
+    Examples
+    --------
+    >>> import numpy as np, edmf_rs
+    >>> model = lambda t: np.column_stack([t[:, 0] + t[:, 1], t[:, 0] - t[:, 1]])
+    >>> t = edmf_rs.Thresholds([-0.1, -0.1], [0.1, 0.1])
+    >>> r = edmf_rs.adaptive_falsify(model, [[0, 1], [0, 1]], [1.0, 0.0], t, budget=120, n_screen=4096)
+    >>> r.n_runs == r.waves[-1].n_runs_total, r.falsification.n_instances == r.n_runs
+    (True, True)
     """
 
     parameters: tuple[Parameter, ...]

@@ -90,6 +90,29 @@ def screen(mu, sigma, measurements, thresholds: Thresholds, c: float = 3.0) -> t
 def screen_reference(mu, sigma, measurements, thresholds: Thresholds, c: float = 3.0) -> np.ndarray:
     """The screening rule in plain NumPy, every sensor of every point (the oracle).
 
+    A point is kept when, at every sensor, ``T_low - c sigma <= mu - y <= T_high + c sigma``.
+
+    Parameters
+    ----------
+    mu, sigma : array_like, shape (N, n_m)
+        The emulators' predictive means and standard deviations.
+    measurements : array_like, shape (n_m,)
+        y.
+    thresholds : Thresholds
+        The threshold bounds (Eqs. 5-6).
+    c : float, default 3.0
+        Margin in predictive standard deviations.
+
+    Returns
+    -------
+    numpy.ndarray of int64
+        Indices of the points kept.
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not broadcast.
+
     Examples
     --------
     >>> import numpy as np, edmf_rs

@@ -84,8 +84,15 @@ class Identifiability:
 class IdentifiabilityCurve:
     """Expected identifiability after the first 1, 2, ..., k sensors of an order.
 
-    ``sizes[m - 1]`` holds the candidate-set sizes with the first m sensors;
-    every m uses the same simulations (true instances and residual draws).
+    Attributes
+    ----------
+    order : numpy.ndarray
+        The locations, in the order they are added.
+    sizes : numpy.ndarray, shape (k, n_simulations)
+        ``sizes[m - 1]``: the candidate-set sizes with the first m sensors;
+        every m uses the same simulations (true instances and residual draws).
+    n_instances : int
+        N, the number of model instances.
 
     Examples
     --------

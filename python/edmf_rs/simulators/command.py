@@ -30,10 +30,25 @@ from .template import check_placeholders, render
 class CommandSpec:
     """``[model]`` for an external program, as written in the project file.
 
-    ``command``: program and arguments (placeholders allowed); ``files``:
-    templates, relative to ``path``; ``output``: the file the program writes
-    and its ``parser`` (``module:function``, or None for .csv/.json);
-    ``timeout``: seconds per run (None: no limit).
+    Attributes
+    ----------
+    command : tuple of str
+        Program and arguments (placeholders allowed).
+    files : tuple of str
+        Templates, relative to ``path``, copied into each run's work folder
+        with ``{NAME}`` replaced by the instance's parameters.
+    output, parser : str, str or None
+        The file the program writes, and its parser (``module:function``, or
+        None for .csv/.json).
+    timeout : float or None
+        Seconds per run (None: no limit).
+    keep_work : bool
+        Keep the work folders of successful runs too.
+
+    Examples
+    --------
+    >>> CommandSpec(("ccx", "-i", "girder"), files=("girder.inp",), output="girder.dat").timeout is None
+    True
     """
 
     command: tuple[str, ...]

@@ -20,7 +20,18 @@ STDERR_LINES = 5
 
 
 class SimulationError(RuntimeError):
-    """The model's runs failed in a way that stops the identification (exit code 1)."""
+    """The model's runs failed in a way that stops the identification (exit code 1).
+
+    Attributes
+    ----------
+    args : tuple of str
+        The message: the instances, the command and the work folders.
+
+    Examples
+    --------
+    >>> SimulationError("the first 5 instances all failed").names_its_instances
+    True
+    """
 
     #: The message already names the instances, the command and the work folders.
     names_its_instances = True
@@ -28,7 +39,24 @@ class SimulationError(RuntimeError):
 
 @dataclass(frozen=True)
 class Failure:
-    """One failed model instance: its index, parameters, reason, stderr tail and work folder."""
+    """One failed model instance: its index, parameters, reason, stderr tail and work folder.
+
+    Attributes
+    ----------
+    instance : int
+        Index of the model instance.
+    parameters : tuple of float
+        Its parameters.
+    reason : str
+        Exit code, signal, timeout or why the output could not be read.
+    stderr, work : str
+        The last lines of the program's stderr, and its (kept) work folder.
+
+    Examples
+    --------
+    >>> Failure(3, (1.5,), "exit code 2").describe(["E"])
+    'instance 3 (E=1.5): exit code 2'
+    """
 
     instance: int
     parameters: tuple[float, ...]
@@ -50,11 +78,15 @@ class Failure:
 class FailurePolicy:
     """When failures stop the run.
 
-    ``first``: if the first ``first`` instances all fail, the setup is wrong
-    (a command, a template or a parser) and the run stops with their reasons.
-    ``max_rate``: the run stops as soon as more than this fraction of all
-    planned instances has failed (so a stop is never premature: the limit can
-    no longer be met). None: no limit.
+    Parameters
+    ----------
+    first : int, default 5
+        If the first ``first`` instances all fail, the setup is wrong (a
+        command, a template or a parser) and the run stops with their reasons.
+    max_rate : float or None
+        The run stops as soon as more than this fraction of all planned
+        instances has failed (so a stop is never premature: the limit can no
+        longer be met). None: no limit.
 
     Examples
     --------

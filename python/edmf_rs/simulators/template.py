@@ -15,7 +15,18 @@ _TOKEN = re.compile(r"\{\{|\}\}|\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
 
 class TemplateError(ValueError):
-    """A template naming a placeholder that is not a parameter."""
+    """A template naming a placeholder that is not a parameter (a ``ValueError``).
+
+    Attributes
+    ----------
+    args : tuple of str
+        The message, naming the template file and the placeholder.
+
+    Examples
+    --------
+    >>> issubclass(TemplateError, ValueError)
+    True
+    """
 
 
 def placeholders(text: str) -> list[str]:
