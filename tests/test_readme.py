@@ -46,3 +46,17 @@ def test_the_adaptive_numbers_are_the_benchmarks():
     assert "meets the 2 % target" in girder
     text = " ".join(README.read_text(encoding="utf-8").split())
     assert f"within 2 % of the domain with {runs} runs where dense Sobol' sampling needed {dense}" in text
+
+
+def test_the_performance_summary_is_the_benchmark_file():
+    """The README's 2,000,000 x 50 ranges are the min and max over the 2-thread rows of benches/results-2m50.txt."""
+    rows = [line.split() for line in (README.parent / "benches" / "results-2m50.txt").read_text().splitlines()
+            if "edmf_rs 2 thr" in line and "2,000,000   50" in line]
+    assert len(rows) == 12
+    ms = [round(float(r[-5]) * 1000) for r in rows]
+    numpy_x = [int(float(r[-2])) for r in rows]
+    rule_x = [int(float(r[-1])) for r in rows]
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    assert (f"takes {min(ms)}-{max(ms)} ms on 2 threads: {min(numpy_x)}-{max(numpy_x)}× the plain NumPy reference"
+            in text)
+    assert f"and {min(rule_x)}-{max(rule_x)}× the leanest NumPy rule" in text

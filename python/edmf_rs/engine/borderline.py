@@ -80,7 +80,9 @@ class BorderlineCounter:
 
     def __init__(self, thresholds: Thresholds, measurements, k: float = 2.0):
         self.thresholds, self.measurements, self.k = thresholds, measurements, k
-        self.active = thresholds.se_low is not None and bool(
+        # Only Monte Carlo bounds have sampling noise to speak of; exact and convolved bounds
+        # (whose SE is a numerical error below 1e-4 of the width) skip the extra pass per batch.
+        self.active = bool(thresholds.monte_carlo) and thresholds.se_low is not None and bool(
             np.any(np.nan_to_num(thresholds.se_low) > 0) or np.any(np.nan_to_num(thresholds.se_high) > 0))
         self.count = 0
 

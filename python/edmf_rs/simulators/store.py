@@ -64,7 +64,7 @@ class PredictionStore:
     >>> import tempfile, numpy as np
     >>> s = PredictionStore(tempfile.mkdtemp(), {"model": "f"}, ("a",), ("S",))
     >>> s.append(0, np.array([[1.0], [2.0]]), np.array([[10.0], [np.nan]]), np.array([False, True]),
-    ...          ["", "exit code 1"], ["", "boom"], ["", "/tmp/w"])
+    ...          ["", "exit code 1"], ["", "boom"], ["", "work/instance-000000002"])
     >>> PredictionStore(s.root, {"model": "f"}, ("a",), ("S",)).covered()
     2
     """
