@@ -67,8 +67,9 @@ def check_out(out: Path, project: Project, force: bool) -> None:
 
 def run_cli(project_path: str | Path, out: str | Path | None = None, progress: bool = True, *,
             dry_run: bool = False, yes: bool = False, force: bool = False, threads: int | None = None,
-            workers: int | None = None) -> int:
-    """``edmf-rs run PROJECT.toml [--out DIR] [--workers N]``: the whole run; returns the exit status."""
+            workers: int | None = None, scheduler: str | None = None, retry_failures: bool = False) -> int:
+    """``edmf-rs run PROJECT.toml [--out DIR] [--workers N] [--scheduler ADDRESS] [--retry-failures]``:
+    the whole run; returns the exit status."""
     started = time.perf_counter()
     if threads is not None:
         from .._core import set_num_threads
@@ -91,7 +92,7 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
     identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS, out=out_dir,
-                                 workers=workers)
+                                 workers=workers, scheduler=scheduler, retry_failures=retry_failures)
     identification.write(out_dir)
     print(identification.summary())
     print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "
