@@ -70,6 +70,8 @@ def test_shuffled_named_columns_give_the_unshuffled_candidates_via_workers_and_t
         # The rerun reads every prediction back from the store, columns by name.
         code, again = run(project, out, *extra)
         assert code == 0 and (again["model_evaluations"], again["reused_evaluations"]) == (0, 256)
+        assert again["identification"]["sensor_mapping"] == got["identification"]["sensor_mapping"]
+        assert got["identification"]["sensor_mapping"]["how"] == "by name"
         pd.testing.assert_frame_equal(pd.read_parquet(out / "candidates.parquet"), expected)
 
 

@@ -78,6 +78,9 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
             raise ProjectError(f"--threads: expected a positive number of threads, got {threads}")
         set_num_threads(threads)
     project = Project.from_toml(project_path)
+    if scheduler is not None and getattr(project.sampling, "method", None) == "adaptive":
+        raise ProjectError(f"--scheduler {scheduler}: not with method = \"adaptive\" in {project.file} (its waves "
+                           "run the model in this process)")
     out_dir = Path(out) if out is not None else default_out(project_path)
     check_out(out_dir, project, force)
     check_instances(project.n_instances, yes)

@@ -166,6 +166,9 @@ def read_spec(path: str | Path) -> ProjectSpec:
         sampling = None
     else:
         sampling = _sampling(root, parameters)
+        if model.scheduler is not None and sampling.method == "adaptive":
+            raise ProjectError(f"{label}: compute.scheduler: not with method = \"adaptive\" (its waves run "
+                               "the model in this process); remove [compute] or use sobol, lhs or grid")
 
     measurements_file, inline, exclude, decimal, encoding = _measurements(root, base)
     return ProjectSpec(

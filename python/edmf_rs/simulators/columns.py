@@ -110,6 +110,17 @@ class StoreColumns:
         self.check = SensorMatch(self.required, self.positional, positional_source)
         self.source = positional_source
         self._plans: dict[tuple[str, ...], tuple[SensorMatch, list[int], tuple[str, ...]]] = {}
+        self.names: tuple[str, ...] | None = None  # the output names last seen (None: a bare array)
+
+    def replay(self, names: list[str] | None) -> None:
+        """Sets :attr:`mapping` from the output names a run stored (None: a bare array), for a run
+        served from the store without calling the model."""
+        if self.check.mapping is None:
+            fake = dict.fromkeys(names, np.zeros(0)) if names is not None else np.zeros((0, len(self.positional)))
+            try:
+                self.check(fake, 0)
+            except SensorMismatch:
+                pass  # refused when the rows are read (refuse_absent)
 
     @property
     def mapping(self) -> SensorMapping | None:
@@ -122,6 +133,7 @@ class StoreColumns:
         try:
             self.check(out, n_rows)
             given = names if names is not None else self.positional
+            self.names = names
             if given not in self._plans:
                 present = [s for s in self.sensors if s in given]
                 index = [self.sensors.index(s) for s in present]

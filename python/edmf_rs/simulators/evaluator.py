@@ -79,6 +79,7 @@ class Evaluator:
         self.parameters, self.sensors, self.n_planned = tuple(parameters), tuple(sensors), n_planned
         self.columns = columns if columns is not None else StoreColumns(self.sensors)
         self.retry_failures = retry_failures
+        self._outputs_saved = False
         self.command, self.function, self.options = command, function, dict(options or {})
         self.workers, self.policy = workers, policy
         self.out = Path(out) if out is not None else None
@@ -133,6 +134,8 @@ class Evaluator:
                                   f"{first}..{first + n - 1} than this run's sampling; remove that folder")
         if self.command is None:
             self.columns.refuse_absent(stored.absent, first, n, self.store.folder)
+            if self.columns.mapping is None and (saved := self.store.outputs()) is not False:
+                self.columns.replay(saved)
         again = self._to_retry(stored)
         self.reused_evaluations += n - again.size
         for i in np.flatnonzero(stored.failed):
@@ -172,6 +175,9 @@ class Evaluator:
         out = matched[0] if len(matched) == 1 else np.concatenate(matched)
         self.model_evaluations += n
         if self.store is not None:
+            if not self._outputs_saved:  # how the outputs were named, for the report of a rerun
+                self.store.save_outputs(self.columns.names)
+                self._outputs_saved = True
             self.store.append(first, theta, out, np.zeros(n, bool), [""] * n, [""] * n, [""] * n,
                               absent=tuple(absent))
         return out

@@ -105,6 +105,20 @@ class PredictionStore:
                               if (m := _RETRY.search(p.name)))
         self._retried: dict[int, tuple] | None = None
 
+    def save_outputs(self, names) -> None:
+        """Records the names of a Python model's outputs (None: a bare array), once."""
+        path = self.folder / "outputs.json"
+        if not path.is_file():
+            write_text(path, json.dumps({"names": None if names is None else list(names)}) + "\n")
+
+    def outputs(self):
+        """The recorded output names (None: a bare array), or False when none were recorded."""
+        try:
+            names = json.loads((self.folder / "outputs.json").read_text(encoding="utf-8"))["names"]
+        except (OSError, ValueError, KeyError, TypeError):
+            return False
+        return names if names is None or all(isinstance(n, str) for n in names) else False
+
     def covered(self) -> int:
         """How many instances from 0 on are stored without a gap."""
         end = 0
