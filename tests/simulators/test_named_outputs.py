@@ -7,6 +7,7 @@ prediction store on a rerun (issue 12 part 1 through issue 14's evaluator)."""
 import json
 import textwrap
 
+import numpy as np
 import pandas as pd
 import pytest
 from conftest import write_project
@@ -36,6 +37,9 @@ NAMED = textwrap.dedent("""
         for j in ORDER:
             out[NAMES[j]] = g[:, j]
         return out
+
+    def bare_shuffled(theta):          # no names: [model] sensors gives the order
+        return predict(theta)[:, ORDER]
 
     def without_s2(theta):
         g = predict(theta)
@@ -108,3 +112,22 @@ def test_an_excluded_sensor_the_model_omits_is_stored_absent_and_refused_once_in
     err = capsys.readouterr().err
     assert "provides no prediction for sensor S2" in err and "in the prediction store" in err
     assert len(list(out.glob("store/*/part-*.parquet"))) == 2  # nothing evaluated or stored again
+
+
+def test_a_bare_array_in_model_sensors_order_is_stored_under_the_right_names(named, tmp_path):
+    bare = write_project(named, 'function = "lin_model:predict"\nbatch_size = 50', n=128, name="bare.toml")
+    want = run(bare, tmp_path / "bare")[1]
+    expected = pd.read_parquet(tmp_path / "bare" / "candidates.parquet")
+    model = 'function = "named_model:bare_shuffled"\nsensors = ["S3", "S1", "S4", "S2"]\nbatch_size = 50'
+    project = write_project(named, model, n=128)
+    out = tmp_path / "out"
+    for extra, evaluations in ((("--workers", "2"), 128), ((), 0)):
+        code, got = run(project, out, *extra)
+        assert code == 0 and got["model_evaluations"] == evaluations and got["candidates"] == want["candidates"]
+        pd.testing.assert_frame_equal(pd.read_parquet(out / "candidates.parquet"), expected)
+    # The store's columns carry the sensors' names, whatever order the model used.
+    stored = pd.concat(pd.read_parquet(f) for f in sorted(out.glob("store/*/part-*.parquet")))
+    theta = stored[["p:a", "p:b"]].to_numpy()
+    from conftest import A
+    np.testing.assert_array_equal(stored[["s:S1", "s:S2", "s:S3", "s:S4"]].to_numpy(),
+                                  theta[:, 0:1] * A[0] + theta[:, 1:2] * A[1])
