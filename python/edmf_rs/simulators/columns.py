@@ -40,16 +40,14 @@ class OutputMismatch(SensorMismatch):
     names_its_instances = True
 
 
-def portable(out, n_rows: int):
+def portable(out):
     """What a worker sends back: a named output as it is (DataFrame, mapping,
     structured array: they pickle with their names), anything else as float64.
 
     Parameters
     ----------
     out
-        What the model returned for ``n_rows`` parameter sets.
-    n_rows : int
-        Rows of the batch (unused; kept for symmetry with :class:`StoreColumns`).
+        What the model returned for a batch of parameter sets.
 
     Returns
     -------
@@ -58,9 +56,9 @@ def portable(out, n_rows: int):
 
     Examples
     --------
-    >>> portable([[1, 2]], 1).dtype
+    >>> portable([[1, 2]]).dtype
     dtype('float64')
-    >>> portable({"S": [1.0]}, 1)
+    >>> portable({"S": [1.0]})
     {'S': [1.0]}
     """
     names, out = named_output(out)

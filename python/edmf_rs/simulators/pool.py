@@ -42,7 +42,7 @@ def _function(ref: str, path: str):
 def _call(ref: str, path: str, options: dict, theta: np.ndarray):
     """The model on one piece of a batch; a named output (DataFrame, mapping,
     structured array) comes back with its names, to be matched by name."""
-    return portable(_function(ref, path)(theta, **options), theta.shape[0])
+    return portable(_function(ref, path)(theta, **options))
 
 
 class FunctionPool:
