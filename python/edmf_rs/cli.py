@@ -78,6 +78,12 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--no-progress", action="store_true", help="hide the progress line")
     run.add_argument("--workers", type=int, default=None, metavar="N",
                      help="parallel model runs (default: [model] workers in the project file, else 1)")
+    run.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                     help="evaluate the Python model on this Dask scheduler, e.g. tcp://host:8786 (default: "
+                          "[compute] scheduler in the project file)")
+    run.add_argument("--retry-failures", action="store_true",
+                     help="run again the failed instances the prediction store holds (by default only those "
+                          "that timed out under a shorter timeout are run again)")
 
     des = sub.add_parser("design", parents=[common], help="choose sensor locations before the test: "
                          "joint-entropy placement and expected identifiability (a project with [design])")
@@ -111,7 +117,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.workers is not None and args.workers < 1:
             raise ValueError(f"--workers: expected a number of parallel runs >= 1, got {args.workers}")
         return run_cli(project, out=out, progress=not args.no_progress, dry_run=args.dry_run, yes=args.yes,
-                       force=args.force, threads=args.threads, workers=args.workers)
+                       force=args.force, threads=args.threads, workers=args.workers, scheduler=args.scheduler,
+                       retry_failures=args.retry_failures)
     except KeyboardInterrupt:
         print("edmf-rs: interrupted", file=sys.stderr)
         return 130

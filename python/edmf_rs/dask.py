@@ -10,7 +10,8 @@ call whatever the chunking, the number of workers or their threads. On a
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+import warnings
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -30,6 +31,7 @@ from .engine.durable import from_accumulator
 from .engine.durable import readonly as _readonly
 from .engine.model import evaluate, is_parameter_array
 from .engine.result import FalsificationResult, concatenate
+from .engine.sensors import SensorMatch, sensor_match
 from .engine.thresholds import Thresholds
 from .stream.chunks import as_chunk
 from .stream.progress import bar
@@ -109,7 +111,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
 
 def falsify_model(model: Callable, parameters, measurements, thresholds: Thresholds, *, client=None,
                   batch_size: int = 10_000, diagnostics: bool = True, keep_violations: bool = False,
-                  nan: str = "raise", progress: bool = True, window: int | None = None) -> FalsificationResult:
+                  nan: str = "raise", progress: bool = True, window: int | None = None,
+                  sensors: Sequence[str] | None = None) -> FalsificationResult:
     """`edmf_rs.falsify_model` with the model evaluated on Dask workers,
     one task per batch of parameter sets.
 
@@ -136,6 +139,12 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         As in `edmf_rs.falsify_model`.
     window : int, optional
         Batches of an iterable in flight at once; default four per worker thread.
+    sensors : sequence of str, optional
+        The names of the sensors of ``measurements``, in order: the model may
+        then return a ``pandas.DataFrame``, a mapping of sensor name to column
+        or a structured array, matched to the sensors by name on the workers
+        (outputs no sensor uses are ignored, with a warning), as in
+        `edmf_rs.falsify_model`. Without it, a named output is refused.
 
     Returns
     -------
@@ -149,8 +158,10 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         If ``model`` is not callable, ``thresholds`` is not a `Thresholds`, or
         ``parameters`` is neither an array nor an iterable of batches.
     ValueError
-        If an argument is out of range, batches differ in width, or the model
-        returns the wrong shape or NaN (with ``nan="raise"``).
+        If an argument is out of range, batches differ in width, ``sensors``
+        does not name each measurement once, the model returns the wrong
+        shape or NaN (with ``nan="raise"``), or its named outputs lack a
+        sensor (naming the sensors on both sides).
 
     Examples
     --------
@@ -173,8 +184,9 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         raise ValueError("keep_violations: expected False when diagnostics=False")
     y, thresholds = _checked(measurements, thresholds)
     batch_size = positive_int(batch_size, "batch_size")
+    names = tuple(sensor_match(sensors, y.shape[0]).sensors) if sensors is not None else None
     task = dask.delayed(_model_block, pure=True)
-    args = (model, y, thresholds.low, thresholds.high, diagnostics, keep_violations, nan)
+    args = (model, y, thresholds.low, thresholds.high, diagnostics, keep_violations, nan, names)
 
     if isinstance(parameters, da.Array) or is_parameter_array(parameters):
         arr = parameters if isinstance(parameters, da.Array) else da.from_array(
@@ -186,7 +198,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         offsets = np.concatenate([[0], np.cumsum(arr.chunks[0])[:-1]]).astype(int)
         blocks = arr.to_delayed().ravel()
         parts = [task(block, int(off), k, *args) for k, (block, off) in enumerate(zip(blocks, offsets))]
-        return _merged(_compute(parts, client, progress, arr.chunks[0]), y, thresholds)
+        return _merged_blocks(_compute(parts, client, progress, arr.chunks[0]), y, thresholds)
     if isinstance(parameters, (str, bytes)) or not isinstance(parameters, Iterable):
         raise TypeError(
             f"parameters: expected an (N, p) array or an iterable of (n, p) batches, got {type(parameters).__name__}"
@@ -212,8 +224,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         results += _compute(pending, client, False)
         progress_bar.update(sum(sizes))
     if not results:
-        return _merged([_model_block(np.empty((0, width or 0)), 0, 0, *args)], y, thresholds)
-    return _merged(results, y, thresholds)
+        return _merged_blocks([_model_block(np.empty((0, width or 0)), 0, 0, *args)], y, thresholds)
+    return _merged_blocks(results, y, thresholds)
 
 
 # -- on the workers --------------------------------------------------------
@@ -226,19 +238,22 @@ def _falsify_block(block, y, low, high, diagnostics, keep_violations) -> Falsifi
     return from_accumulator(acc, y, Thresholds(low, high))
 
 
-def _model_block(params, offset, index, model, y, low, high, diagnostics, keep_violations, nan):
+def _model_block(params, offset, index, model, y, low, high, diagnostics, keep_violations, nan, sensors=None):
+    """One batch: (its falsification result, the model outputs no sensor uses)."""
     _match_worker_threads()
     y, low, high = _aligned(y, low, high)
     params = np.asarray(params, dtype=np.float64)
     acc = _core.Falsifier(y, low, high, diagnostics=diagnostics, keep_violations=keep_violations)
+    match = SensorMatch(sensors) if sensors is not None else None
     if params.shape[0]:
-        preds = evaluate(model, params, offset, y.shape[0], nan, index)
+        preds = evaluate(model, params, offset, y.shape[0], nan, index, match)
         acc.update(preds)
     else:
         preds = np.empty((0, y.shape[0]))
     result = from_accumulator(acc, y, Thresholds(low, high))
     local = result.candidate_indices
-    return replace(result, candidate_parameters=params[local], candidate_predictions=preds[local])
+    ignored = match.mapping.ignored if match is not None and match.mapping is not None else ()
+    return replace(result, candidate_parameters=params[local], candidate_predictions=preds[local]), ignored
 
 
 def _aligned(*vectors: np.ndarray) -> list[np.ndarray]:
@@ -309,6 +324,15 @@ def _total_threads(client) -> int:
     if client is None:
         return os.cpu_count() or 1
     return sum(client.nthreads().values())
+
+
+def _merged_blocks(blocks: list, y: np.ndarray, thresholds: Thresholds) -> FalsificationResult:
+    """The model blocks' results merged; outputs no sensor uses are reported once, as in process."""
+    ignored = next((names for _, names in blocks if names), ())
+    if ignored:
+        warnings.warn(f"model outputs not among the sensors, ignored: {', '.join(ignored)}", UserWarning,
+                      stacklevel=3)
+    return _merged([result for result, _ in blocks], y, thresholds)
 
 
 def _merged(parts: list[FalsificationResult], y: np.ndarray, thresholds: Thresholds) -> FalsificationResult:

@@ -27,7 +27,7 @@ ALLOWED = {
     "design": {"engine", "stream", "project", "reference"},
     "adaptive": {"engine", "stream", "reference"},
     "cli": {"paper", "project", "design", "examples", "simulators"},
-    "simulators": {"stream"},
+    "simulators": {"stream", "engine"},  # engine.sensors: model outputs matched by name
 }
 
 

@@ -29,6 +29,11 @@ SOLVER = textwrap.dedent("""
         time.sleep(60)
     if mode.startswith("sleep="):
         time.sleep(float(mode[6:]))
+    if mode.startswith("slow_high_a=") and a > 1.5:
+        time.sleep(float(mode[12:]))
+    if mode == "fail_high_a_env" and a > 1.5 and os.environ.get("STANDIN_FAIL"):
+        print("licence server not answering", file=sys.stderr)
+        sys.exit(4)
     if mode == "segv":
         os.kill(os.getpid(), signal.SIGSEGV)
     if mode == "nooutput":

@@ -23,7 +23,7 @@ from ..stream.progress import bar
 from ._validate import finite_vector, flag, positive_int, real_array
 from .durable import open_run
 from .result import FalsificationResult
-from .sensors import SensorMatch, SensorMismatch, named_output
+from .sensors import SensorMatch, SensorMismatch, named_output, sensor_match
 from .thresholds import Thresholds
 
 
@@ -237,13 +237,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
     batch_size = positive_int(batch_size, "batch_size")
     every = every_seconds(checkpoint_every)
-    match = None
-    if sensors is not None:
-        if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
-            raise TypeError("sensors: expected a sequence of sensor names (str)")
-        if len(sensors) != y.shape[0]:
-            raise ValueError(f"sensors: expected {y.shape[0]} names (one per measurement), got {len(sensors)}")
-        match = SensorMatch(sensors)
+    match = sensor_match(sensors, y.shape[0])
     n_total = _known_length(parameters)
     named = {"sensors": list(sensors)} if sensors is not None else {}
     fp = fingerprint("falsify_model", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SensorMapping", "SensorMatch", "SensorMismatch", "named_output"]
+__all__ = ["SensorMapping", "SensorMatch", "SensorMismatch", "named_output", "sensor_match"]
 
 
 class SensorMismatch(ValueError):
@@ -171,3 +171,42 @@ class SensorMatch:
         if cols.shape != (n_rows, len(self.sensors)):
             raise SensorMismatch(f"returned columns of {cols.shape[0]} rows for {n_rows} parameter sets")
         return cols
+
+
+def sensor_match(sensors, n_measurements: int) -> SensorMatch | None:
+    """The ``sensors=`` argument of `falsify_model` checked: a :class:`SensorMatch`, or None when not given.
+
+    Parameters
+    ----------
+    sensors : sequence of str or None
+        The names of the measurements' sensors, in order.
+    n_measurements : int
+        How many measurements there are.
+
+    Returns
+    -------
+    SensorMatch or None
+
+    Raises
+    ------
+    TypeError
+        If ``sensors`` is not a sequence of str.
+    ValueError
+        If it does not hold one distinct name per measurement.
+
+    Examples
+    --------
+    >>> sensor_match(["D1", "D2"], 2).sensors
+    ('D1', 'D2')
+    >>> sensor_match(["D1"], 2)
+    Traceback (most recent call last):
+    ...
+    ValueError: sensors: expected 2 names (one per measurement), got 1
+    """
+    if sensors is None:
+        return None
+    if isinstance(sensors, str) or not all(isinstance(s, str) for s in sensors):
+        raise TypeError("sensors: expected a sequence of sensor names (str)")
+    if len(sensors) != n_measurements:
+        raise ValueError(f"sensors: expected {n_measurements} names (one per measurement), got {len(sensors)}")
+    return SensorMatch(sensors)

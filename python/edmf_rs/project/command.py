@@ -67,8 +67,9 @@ def check_out(out: Path, project: Project, force: bool) -> None:
 
 def run_cli(project_path: str | Path, out: str | Path | None = None, progress: bool = True, *,
             dry_run: bool = False, yes: bool = False, force: bool = False, threads: int | None = None,
-            workers: int | None = None) -> int:
-    """``edmf-rs run PROJECT.toml [--out DIR] [--workers N]``: the whole run; returns the exit status."""
+            workers: int | None = None, scheduler: str | None = None, retry_failures: bool = False) -> int:
+    """``edmf-rs run PROJECT.toml [--out DIR] [--workers N] [--scheduler ADDRESS] [--retry-failures]``:
+    the whole run; returns the exit status."""
     started = time.perf_counter()
     if threads is not None:
         from .._core import set_num_threads
@@ -77,6 +78,9 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
             raise ProjectError(f"--threads: expected a positive number of threads, got {threads}")
         set_num_threads(threads)
     project = Project.from_toml(project_path)
+    if scheduler is not None and getattr(project.sampling, "method", None) == "adaptive":
+        raise ProjectError(f"--scheduler {scheduler}: not with method = \"adaptive\" in {project.file} (its waves "
+                           "run the model in this process)")
     out_dir = Path(out) if out is not None else default_out(project_path)
     check_out(out_dir, project, force)
     check_instances(project.n_instances, yes)
@@ -91,7 +95,7 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
     identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS, out=out_dir,
-                                 workers=workers)
+                                 workers=workers, scheduler=scheduler, retry_failures=retry_failures)
     identification.write(out_dir)
     print(identification.summary())
     print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "

@@ -6,6 +6,8 @@ parallel workers and records failed runs (``[model] command``, ``workers``,
 from __future__ import annotations
 
 from ..simulators import CommandModel, Evaluator, FailurePolicy
+from ..simulators.cluster import SchedulerUnreachable
+from ..simulators.columns import StoreColumns
 from .schema import ProjectError
 
 
@@ -17,17 +19,31 @@ def command_model(spec, all_sensors, label: str) -> CommandModel:
         raise ProjectError(f"{label}: model.{exc}") from None
 
 
-def make_evaluator(project, out, workers) -> Evaluator | None:
-    """The simulators' evaluator (store, parallel runs, external programs), or None when not needed."""
+def make_evaluator(project, out, workers, scheduler: str | None = None,
+                   retry_failures: bool = False) -> Evaluator | None:
+    """The simulators' evaluator (store, parallel runs, a Dask cluster, external programs), or None
+    when not needed. ``scheduler`` (``--scheduler``) overrides ``[compute] scheduler``."""
     m = project.model
     workers = m.workers if workers is None else workers
-    if m.predictions is not None or (out is None and project.command is None and workers == 1):
+    scheduler = scheduler or m.scheduler
+    if scheduler is not None and project.model_function is None:
+        raise ProjectError(f"{project.file}: --scheduler {scheduler}: a Dask scheduler evaluates only a Python "
+                           "model (model.function)")
+    if m.predictions is not None or (out is None and project.command is None and workers == 1 and scheduler is None):
         return None
     names = [s.name for s in project.all_sensors]
     sampling = {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
                 "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
                 "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters], "sensors": names}
-    return Evaluator(project.parameter_names, names, project.sampling.n, command=project.command,
-                     function=project.model_function, ref=m.function or "", path=m.path, options=m.options,
-                     workers=workers, out=out, sampling=sampling, store=m.store,
-                     policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate))
+    positional, source = project.positional_sensors
+    columns = StoreColumns(names, required=project.sensor_names, positional=positional, positional_source=source,
+                           where=f"{project.file}: model.function = '{m.function}'")
+    try:
+        return Evaluator(project.parameter_names, names, project.sampling.n, command=project.command,
+                         function=project.model_function, ref=m.function or "", path=m.path, options=m.options,
+                         workers=workers, out=out, sampling=sampling, store=m.store,
+                         policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate), columns=columns,
+                         scheduler=scheduler, retry_failures=retry_failures)
+    except SchedulerUnreachable as exc:
+        where = "--scheduler" if scheduler != m.scheduler else "compute.scheduler"
+        raise ProjectError(f"{project.file}: {where}: {exc}") from None

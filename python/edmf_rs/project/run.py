@@ -277,7 +277,7 @@ class Project:
         """
         seconds = None
         workers = self.model.workers if workers is None else workers
-        if self.model_function is not None and workers > 1:
+        if self.model_function is not None and (workers > 1 or self.model.scheduler):
             # The model runs only in the worker processes: one that crashes its process (a segfaulting
             # solver, the OOM killer) must not take edmf-rs down. Its first batch is the check.
             theta = self.sampling.head(2)
@@ -302,7 +302,8 @@ class Project:
                     seconds_per_instance=seconds)
 
     def run(self, *, progress: bool | Progress = True, max_seconds: float | None = None,
-            out: str | Path | None = None, workers: int | None = None) -> Identification:
+            out: str | Path | None = None, workers: int | None = None, scheduler: str | None = None,
+            retry_failures: bool = False) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass.
 
         Samples the parameters (or, with ``method = "adaptive"``, runs EDMF in
@@ -324,6 +325,12 @@ class Project:
             and sampling) with failed runs in ``out/failures.csv``.
         workers : int, optional
             Parallel model runs (default: ``[model] workers``).
+        scheduler : str, optional
+            A Dask scheduler's address that evaluates the Python model
+            (default: ``[compute] scheduler``).
+        retry_failures : bool, default False
+            Run again every failed instance the prediction store holds (by
+            default only those that timed out under a shorter ``timeout``).
 
         Returns
         -------
@@ -355,7 +362,7 @@ class Project:
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)
-        evaluator = make_evaluator(self, out, workers)
+        evaluator = make_evaluator(self, out, workers, scheduler, retry_failures)
         try:
             return self._run(start, combined, thresholds, evaluator, progress, max_seconds)
         finally:
@@ -394,7 +401,8 @@ class Project:
             # A failed run's row is all NaN, which the falsification counts against every sensor;
             # failed instances are neither candidates nor falsified.
             result = replace(result, per_sensor_falsified=result.per_sensor_falsified - result.n_invalid)
-        mapping = getattr(model, "mapping", None)
+        mapping = (evaluator.mapping if evaluator is not None and self.command is None else None) or \
+            getattr(model, "mapping", None)
         candidates = pd.DataFrame(
             np.hstack([result.candidate_parameters, result.candidate_predictions]),
             columns=[*self.parameter_names, *self.sensor_names],
@@ -421,8 +429,9 @@ class Project:
     def _checked_model(self, evaluator: Evaluator | None = None) -> CheckedModel:
         """The model (or the evaluator of external runs) with its outputs matched to the sensors by name."""
         positional, source = self.positional_sensors
-        if evaluator is not None:
+        if evaluator is not None:  # it returns every sensor's column, matched by name, in the measurements' order
             function, options = evaluator, {}
+            positional, source = evaluator.sensors, "the measurements' order"
         else:
             function, options = self.model_function, self.model.options
         what = f"command = {list(self.command.spec.command)}" if self.command else f"function = '{self.model.function}'"

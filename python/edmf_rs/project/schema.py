@@ -60,6 +60,7 @@ class ModelSpec:
     store: bool = True                   # keep every evaluated instance in <out>/store
     max_failure_rate: float | None = None
     stop_after_failures: int = 5          # stop when the first N instances all fail
+    scheduler: str | None = None          # [compute] scheduler: a Dask scheduler evaluating the function
 
 
 @dataclass(frozen=True)
@@ -114,7 +115,7 @@ class ProjectSpec:
 
 
 TOP_LEVEL = ("identification", "parameters", "sampling", "model", "measurements", "sensors",
-             "uncertainty", "prognosis")
+             "uncertainty", "prognosis", "compute")
 
 
 def read_spec(path: str | Path) -> ProjectSpec:
@@ -157,7 +158,7 @@ def read_spec(path: str | Path) -> ProjectSpec:
         raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
 
     parameters = _parameters(root)
-    model = _model(root, base)
+    model = _compute(root, _model(root, base))
     if model.predictions is not None:
         if "sampling" in root.data:
             raise ProjectError(f"{label}: sampling: not used when model.predictions gives the instances; "
@@ -165,6 +166,9 @@ def read_spec(path: str | Path) -> ProjectSpec:
         sampling = None
     else:
         sampling = _sampling(root, parameters)
+        if model.scheduler is not None and sampling.method == "adaptive":
+            raise ProjectError(f"{label}: compute.scheduler: not with method = \"adaptive\" (its waves run "
+                               "the model in this process); remove [compute] or use sobol, lhs or grid")
 
     measurements_file, inline, exclude, decimal, encoding = _measurements(root, base)
     return ProjectSpec(
@@ -298,6 +302,23 @@ def _model(root: Table, base: Path) -> ModelSpec:
                       "sensors gives the columns of a .npy array)", list(sensors))
     return ModelSpec(predictions=predictions, parameters=parameters, nan=nan, batch_size=batch_size,
                      sensors=sensors)
+
+
+def _compute(root: Table, model: ModelSpec) -> ModelSpec:
+    """[compute] scheduler = "tcp://host:8786": the Dask cluster that evaluates a Python function model."""
+    from dataclasses import replace
+
+    t = root.table("compute", {})
+    t.check_keys(("scheduler",))
+    if "scheduler" not in t.data:
+        return model
+    scheduler = t.get("scheduler", "str", what="a Dask scheduler address, e.g. \"tcp://10.0.0.5:8786\"")
+    if not scheduler.strip():
+        raise t.error("scheduler", "a Dask scheduler address, e.g. \"tcp://10.0.0.5:8786\"", scheduler)
+    if model.function is None:
+        raise t.error("scheduler", "a scheduler only with model.function (a Python model; external "
+                      "programs run in local workers, precomputed instances need no model)", scheduler)
+    return replace(model, scheduler=scheduler.strip())
 
 
 def _run_options(t: Table) -> dict:

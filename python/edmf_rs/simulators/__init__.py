@@ -5,7 +5,9 @@
 evaluates in parallel; ``store`` keeps every evaluated instance so a run can
 be resumed or repeated with other uncertainties without evaluating again;
 ``failures`` records failed runs as data; ``evaluator`` puts them together
-behind the call signature of a Python model. Depends on ``stream`` only.
+behind the call signature of a Python model; ``columns`` matches a model's
+named outputs to the sensors and ``cluster`` evaluates on a Dask scheduler.
+Depends on ``stream`` and on ``engine.sensors`` (matching by name).
 """
 
 from .command import CommandModel, CommandSpec

@@ -177,7 +177,7 @@ class CommandModel:
                 self._cleaner.submit(shutil.rmtree, work, ignore_errors=True)
             return result
         return Failure(index, params, f"{reason} (command: {' '.join(command)})", _tail(work / "stderr.txt"),
-                       str(work))
+                       str(work), timeout=self.spec.timeout if reason.startswith("timed out") else None)
 
     def _execute(self, command: list[str], work: Path) -> str | None:
         """Runs the command in ``work``; the reason it failed, or None."""

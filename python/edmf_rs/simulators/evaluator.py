@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .columns import StoreColumns
 from .command import CommandModel, _source_digest
 from .failures import Failure, FailurePolicy, SimulationError, write_failures
 from .pool import FunctionPool, ordered
-from .store import PredictionStore
+from .store import PredictionStore, StoredRows
 
 #: Seconds between flushes of an external program's results to the store.
 FLUSH_SECONDS = 1.0
@@ -49,6 +50,18 @@ class Evaluator:
         work folders in a temporary folder.
     sampling
         A description of the sampling (part of the store's key).
+    columns
+        How a Python model's outputs become the store's columns (matched by
+        name, see :class:`~edmf_rs.simulators.columns.StoreColumns`);
+        default: a bare array in the order of ``sensors``.
+    scheduler
+        A Dask scheduler's address: evaluate a Python function on that
+        cluster (:class:`~edmf_rs.simulators.cluster.ClusterPool`) instead
+        of local processes.
+    retry_failures
+        Run again every failed instance the store holds. Without it, only
+        those that timed out under a shorter timeout than the command's
+        are run again.
 
     Examples
     --------
@@ -61,8 +74,12 @@ class Evaluator:
 
     def __init__(self, parameters, sensors, n_planned: int, *, command: CommandModel | None = None,
                  function=None, ref: str = "", path=".", options: dict | None = None, workers: int = 1,
-                 out=None, sampling: dict | None = None, store: bool = True, policy: FailurePolicy = FailurePolicy()):
+                 out=None, sampling: dict | None = None, store: bool = True, policy: FailurePolicy = FailurePolicy(),
+                 columns: StoreColumns | None = None, scheduler: str | None = None, retry_failures: bool = False):
         self.parameters, self.sensors, self.n_planned = tuple(parameters), tuple(sensors), n_planned
+        self.columns = columns if columns is not None else StoreColumns(self.sensors)
+        self.retry_failures = retry_failures
+        self._outputs_saved = False
         self.command, self.function, self.options = command, function, dict(options or {})
         self.workers, self.policy = workers, policy
         self.out = Path(out) if out is not None else None
@@ -85,7 +102,18 @@ class Evaluator:
             else:
                 self._temp = self.work_root = Path(tempfile.mkdtemp(prefix="edmf-rs-work-"))
             self._write_failures()
-        self.pool = FunctionPool(ref, path, self.options, workers) if command is None and workers > 1 else None
+        self.pool = None
+        if command is None and scheduler is not None:
+            from .cluster import ClusterPool
+
+            self.pool = ClusterPool(scheduler, ref, path, self.options)
+        elif command is None and workers > 1:
+            self.pool = FunctionPool(ref, path, self.options, workers)
+
+    @property
+    def mapping(self):
+        """How a Python model's outputs were matched to the sensors used (None until it is called)."""
+        return self.columns.mapping
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         theta = np.asarray(theta, dtype=np.float64)
@@ -104,33 +132,70 @@ class Evaluator:
         if stored is None or not np.array_equal(stored.parameters, theta):
             raise SimulationError(f"the prediction store {self.store.folder} holds other parameters for instances "
                                   f"{first}..{first + n - 1} than this run's sampling; remove that folder")
-        self.reused_evaluations += n
+        if self.command is None:
+            self.columns.refuse_absent(stored.absent, first, n, self.store.folder)
+            if self.columns.mapping is None and (saved := self.store.outputs()) is not False:
+                self.columns.replay(saved)
+        again = self._to_retry(stored)
+        self.reused_evaluations += n - again.size
         for i in np.flatnonzero(stored.failed):
-            self._count(Failure(first + int(i), tuple(theta[i]), stored.reason[i], stored.stderr[i], stored.work[i]))
-        return stored.predictions
+            if i not in again:
+                self._count(Failure(first + int(i), tuple(theta[i]), stored.reason[i], stored.stderr[i],
+                                    stored.work[i], _finite(stored.timeout[i])))
+        if not again.size:
+            return stored.predictions
+        out = stored.predictions.copy()
+        out[again] = self._run_commands(first + again, theta[again], retry=True)
+        return out
+
+    def _to_retry(self, stored: StoredRows) -> np.ndarray:
+        """Stored failures to run again: all with ``retry_failures``, else those that timed out
+        under a shorter timeout than this run's (a run that exits non-zero or writes no
+        readable output would fail the same way again)."""
+        if self.command is None or not stored.failed.any():
+            return np.empty(0, dtype=np.int64)
+        if self.retry_failures:
+            return np.flatnonzero(stored.failed)
+        limit = self.command.spec.timeout
+        longer = ~np.isnan(stored.timeout) & (True if limit is None else stored.timeout < limit)
+        return np.flatnonzero(stored.failed & longer)
 
     def _evaluate(self, first: int, theta: np.ndarray) -> np.ndarray:
         n = theta.shape[0]
         if self.command is not None:
-            return self._run_commands(first, theta)
-        out = self.pool(theta, first) if self.pool is not None else np.asarray(
-            self.function(theta, **self.options), dtype=np.float64)
+            return self._run_commands(np.arange(first, first + n), theta)
+        pieces = self.pool.pieces(theta, first) if self.pool is not None else [
+            (n, self.function(theta, **self.options))]
+        matched, at, absent = [], first, set()
+        for rows, piece in pieces:  # each piece matched by name on its own: the same columns on every path
+            values, missing = self.columns(piece, rows, at)
+            matched.append(values)
+            absent.update(missing)
+            at += rows
+        out = matched[0] if len(matched) == 1 else np.concatenate(matched)
         self.model_evaluations += n
-        if self.store is not None and out.shape == (n, len(self.sensors)):
-            self.store.append(first, theta, out, np.zeros(n, bool), [""] * n, [""] * n, [""] * n)
+        if self.store is not None:
+            if not self._outputs_saved:  # how the outputs were named, for the report of a rerun
+                self.store.save_outputs(self.columns.names)
+                self._outputs_saved = True
+            self.store.append(first, theta, out, np.zeros(n, bool), [""] * n, [""] * n, [""] * n,
+                              absent=tuple(absent))
         return out
 
-    def _run_commands(self, first: int, theta: np.ndarray) -> np.ndarray:
+    def _run_commands(self, index: np.ndarray, theta: np.ndarray, retry: bool = False) -> np.ndarray:
+        """Runs instances ``index`` (consecutive, or stored failures run again with ``retry``)."""
         n, m = theta.shape[0], len(self.sensors)
         out = np.full((n, m), np.nan)
         failed, reason, stderr, work = np.zeros(n, bool), [""] * n, [""] * n, [""] * n
+        timeout = np.full(n, np.nan)
         flushed, last = 0, time.monotonic()
 
         def flush(upto: int) -> None:
             nonlocal flushed, last
             if self.store is not None and upto > flushed:
                 s = slice(flushed, upto)
-                self.store.append(first + flushed, theta[s], out[s], failed[s], reason[s], stderr[s], work[s])
+                self.store.append(int(index[flushed]), theta[s], out[s], failed[s], reason[s], stderr[s], work[s],
+                                  timeout=timeout[s], instances=index[s] if retry else None)
             if failed[flushed:upto].any():
                 self._write_failures()
             flushed, last = upto, time.monotonic()
@@ -138,7 +203,7 @@ class Evaluator:
         from concurrent.futures import ThreadPoolExecutor
 
         with ThreadPoolExecutor(self.workers, thread_name_prefix="edmf-rs-run") as pool:
-            results = ordered(pool, self.command.run, ((first + i, theta[i], self.work_root) for i in range(n)))
+            results = ordered(pool, self.command.run, ((int(index[i]), theta[i], self.work_root) for i in range(n)))
             done = 0
             try:
                 for i, result in enumerate(results):
@@ -146,10 +211,11 @@ class Evaluator:
                     self.model_evaluations += 1
                     if isinstance(result, Failure):
                         failed[i], reason[i], stderr[i], work[i] = True, result.reason, result.stderr, result.work
+                        timeout[i] = np.nan if result.timeout is None else result.timeout
                         self._count(result)
                     else:
                         out[i] = result
-                    why = self.policy.check(first + i + 1, self._first_failed, len(self.failures),
+                    why = self.policy.check(int(index[i]) + 1, self._first_failed, len(self.failures),
                                             self.n_planned)
                     if why is not None:
                         flush(i + 1)
@@ -195,3 +261,7 @@ class Evaluator:
             self._write_failures()
         if self._temp is not None and not any(self._temp.iterdir()):
             shutil.rmtree(self._temp, ignore_errors=True)
+
+
+def _finite(value: float) -> float | None:
+    return None if np.isnan(value) else float(value)

@@ -51,6 +51,9 @@ class Failure:
         Exit code, signal, timeout or why the output could not be read.
     stderr, work : str
         The last lines of the program's stderr, and its (kept) work folder.
+    timeout : float or None
+        The timeout the run exceeded (None unless it timed out): a run with
+        a longer timeout evaluates it again.
 
     Examples
     --------
@@ -63,6 +66,7 @@ class Failure:
     reason: str
     stderr: str = ""
     work: str = ""
+    timeout: float | None = None
 
     def describe(self, names) -> str:
         values = ", ".join(f"{n}={v!r}" for n, v in zip(names, self.parameters))

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .columns import portable
 from .failures import SimulationError
 
 _FUNCTIONS: dict[tuple[str, str], object] = {}
@@ -38,8 +39,10 @@ def _function(ref: str, path: str):
     return _FUNCTIONS[key]
 
 
-def _call(ref: str, path: str, options: dict, theta: np.ndarray) -> np.ndarray:
-    return np.asarray(_function(ref, path)(theta, **options), dtype=np.float64)
+def _call(ref: str, path: str, options: dict, theta: np.ndarray):
+    """The model on one piece of a batch; a named output (DataFrame, mapping,
+    structured array) comes back with its names, to be matched by name."""
+    return portable(_function(ref, path)(theta, **options))
 
 
 class FunctionPool:
@@ -70,10 +73,14 @@ class FunctionPool:
         self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
 
     def __call__(self, theta: np.ndarray, first: int) -> np.ndarray:
+        return np.concatenate([np.asarray(out, dtype=np.float64) for _, out in self.pieces(theta, first)])
+
+    def pieces(self, theta: np.ndarray, first: int) -> list[tuple[int, object]]:
+        """(rows, what the model returned) for each contiguous piece of the batch, in order."""
         pieces = [p for p in np.array_split(theta, self.workers) if len(p)]
         futures = [self.pool.submit(_call, self.ref, self.path, self.options, p) for p in pieces]
         try:
-            return np.concatenate([f.result() for f in futures])
+            return [(len(p), f.result()) for p, f in zip(pieces, futures)]
         except BrokenProcessPool:
             raise SimulationError(
                 f"a worker process evaluating model.function = '{self.ref}' on instances {first}.."
