@@ -17,6 +17,8 @@ Options (all but ``method`` optional)::
     n_screen = 1048576    # emulator screening sample
     c = 3.0               # screening margin, emulator standard deviations
     seed = 0
+    basis = "auto"        # emulators per sensor ("sensors") or on principal components
+                          # of the outputs ("pca"); "auto": "pca" above 10 sensors
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from ..adaptive.waves import adaptive_falsify
 from ..stream.atomic import write_bytes, write_text
 from .result import Identification, _clean
 
-KEYS = ("method", "budget", "n_initial", "wave_size", "n_screen", "c", "seed")
+KEYS = ("method", "budget", "n_initial", "wave_size", "n_screen", "c", "seed", "basis")
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,7 @@ class AdaptiveSampling:
     n_screen: int = 2**20
     c: float = 3.0
     seed: int = 0
+    basis: str = "auto"
     method: str = "adaptive"
     points: None = None
 
@@ -84,7 +87,8 @@ def adaptive_sampling(table, parameters) -> AdaptiveSampling:
         raise table.error("c", "a number >= 0", c)
     return AdaptiveSampling(parameters, budget=count("budget", 40 * p + 200), n_initial=count("n_initial", None, p + 1),
                             wave_size=count("wave_size", None), n_screen=count("n_screen", 2**20),
-                            c=c, seed=table.get("seed", "int", 0))
+                            c=c, seed=table.get("seed", "int", 0),
+                            basis=table.get("basis", "choice", "auto", choices=("auto", "sensors", "pca")))
 
 
 def adaptive_evaluator(project, out, workers):
@@ -136,7 +140,7 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
         model = project._checked_model(evaluator)  # outputs matched to the sensors by name, failures named
         result = adaptive_falsify(model, project.parameters, project.measured, thresholds, budget=s.budget,
                                   n_initial=s.n_initial, wave_size=s.wave_size, n_screen=s.n_screen, c=s.c,
-                                  seed=s.seed, nan="falsify" if project.command else project.model.nan)
+                                  seed=s.seed, basis=s.basis, nan="falsify" if project.command else project.model.nan)
     except ProjectError:
         raise
     except ValueError as exc:
