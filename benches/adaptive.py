@@ -17,6 +17,7 @@ side by side.
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import subprocess
 import time
@@ -84,7 +85,8 @@ def main():
     args = ap.parse_args()
     y, thresholds, cases = setup()
     lines = [f"benches/adaptive.py on {cpu_model()}, {edmf_rs.get_num_threads()} threads, "
-             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}",
+             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average at the start "
+             f"{os.getloadavg()[0]:.1f} (CPU times below are per process; run counts do not depend on load)",
              f"reference: dense Sobol' 2^{args.reference_log2}; target: ranges within 2 % of the domain and the "
              "prognosis interval within 2 % of its width"]
     for name, model, qoi, params in cases:
@@ -130,11 +132,12 @@ def main():
                 f"LOO error <= {np.max(w.loo_error):.3g} widths, sigma/width {w.sigma_ratio:.3g}"))
         if needed:
             lines.append(f"  dense Sobol' needs {needed:,} runs for the 2 % target: adaptive used "
-                         f"{r.n_runs / needed:.3f} of that ({needed / r.n_runs:.1f} x fewer runs)")
+                         f"{r.n_runs / needed:.2g} of that ({needed / r.n_runs:.1f} x fewer runs)")
         else:
             lines.append(f"  no dense run up to 2^{args.reference_log2} met the 2 % target; adaptive used "
                          f"{r.n_runs / theta.shape[0]:.4f} of 2^{args.reference_log2} runs")
         print("\n".join(lines[first_line:]), flush=True)
+    lines.append(f"\nload average at the end {os.getloadavg()[0]:.1f}")
     text = "\n".join(lines) + "\n"
     print(text)
     with open(args.out, "w") as fh:

@@ -45,7 +45,12 @@ def test_the_adaptive_numbers_are_the_benchmarks():
     dense = re.search(r"dense Sobol' needs ([\d,]+) runs for the 2 % target", girder).group(1)
     assert "meets the 2 % target" in girder
     text = " ".join(README.read_text(encoding="utf-8").split())
-    assert f"within 2 % of the domain with {runs} runs where dense Sobol' sampling needed {dense}" in text
+    assert (f"within 2 % of the domain and the prognosis interval within 2 % of its width with {runs} runs, where "
+            f"dense Sobol' sampling needed {dense}") in text
+    five = results.split("girder, 5 parameters:")[1]
+    m = re.search(r"adaptive: ([\d,]+) runs .*?ranges off by ([\d.]+) % of the domain, prognosis off by ([\d.]+) %", five)
+    assert (f"on its 5-parameter variant {m[1]} runs came within {float(m[3]):.1f} % on the prognosis but {m[2]} % on "
+            "one parameter's range") in text
 
 
 def test_the_performance_summary_is_the_benchmark_file():

@@ -207,23 +207,35 @@ class SensorEmulators:
             warnings.filterwarnings("ignore", message=".*variances smaller than 0.*")
             return gp.predict(u, return_std=True)[1]
 
-    def validate(self, width: np.ndarray, c: float, coverage: float) -> Validation:
-        """Closed-form leave-one-out residuals and deviations of every sensor's GP.
+    def mean(self, u: np.ndarray) -> np.ndarray:
+        """Predictive mean of every sensor, shape (N, n_m) (cheap: no deviation)."""
+        u = np.asarray(u, dtype=np.float64)
+        return np.column_stack([self._mean(j, u) for j in range(self.n_sensors)])
+
+    def loo(self, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """Leave-one-out residuals y_i - mu_{-i} and deviations of sensor ``j``'s GP, in output units.
 
         With K the fitted covariance (nugget included) and alpha = K^-1 y:
         y_i - mu_{-i} = alpha_i / [K^-1]_ii and var_{-i} = 1 / [K^-1]_ii
         (Rasmussen & Williams 2006, Eq. 5.12), scaled back to output units.
+        A constant sensor has zeros.
         """
+        gp = self.models[j]
+        if gp is None:
+            return np.zeros(self.n_runs), np.zeros(self.n_runs)
+        k_inv = cho_solve((gp.L_, True), np.eye(gp.L_.shape[0]))
+        d = np.diag(k_inv)
+        scale = float(np.atleast_1d(gp._y_train_std)[0])
+        return gp.alpha_.ravel() / d * scale, np.sqrt(1.0 / d) * scale
+
+    def validate(self, width: np.ndarray, c: float, coverage: float) -> Validation:
+        """Closed-form leave-one-out residuals and deviations of every sensor's GP (:meth:`loo`)."""
         error = np.zeros(self.n_sensors)
         cover = np.ones(self.n_sensors)
         for j, gp in enumerate(self.models):
             if gp is None:
                 continue
-            k_inv = cho_solve((gp.L_, True), np.eye(gp.L_.shape[0]))
-            d = np.diag(k_inv)
-            scale = float(np.atleast_1d(gp._y_train_std)[0])
-            residual = gp.alpha_.ravel() / d * scale
-            sd = np.sqrt(1.0 / d) * scale
+            residual, sd = self.loo(j)
             error[j] = np.sqrt(np.mean(residual**2)) / width[j]
             cover[j] = np.mean(np.abs(residual) <= c * sd)
         return Validation(error, cover, cover >= coverage)

@@ -43,6 +43,11 @@ class WaveRecord:
         Up to a few hundred kept points (parameter units), for plots.
     problems
         Emulator warnings (constant outputs, fit failures) in words.
+    components
+        Principal components emulated (``basis = "pca"``), None with one
+        emulator per sensor.
+    fit_seconds
+        Wall time of the emulator fit (and its hyperparameter search).
     
     Examples
     --------
@@ -67,6 +72,8 @@ class WaveRecord:
     min_required_c: float | None = None
     kept_sample: np.ndarray | None = None
     problems: tuple[str, ...] = ()
+    components: int | None = None
+    fit_seconds: float | None = None
 
     @property
     def fallback(self) -> bool:
@@ -77,7 +84,7 @@ class WaveRecord:
                "candidates_so_far": self.n_candidates, "fallback": self.fallback,
                "kept_fraction": self.kept_fraction, "mean_kept_fraction": self.mean_kept_fraction,
                "validated": self.validated, "sigma_ratio": self.sigma_ratio, "min_required_c": self.min_required_c,
-               "problems": list(self.problems)}
+               "problems": list(self.problems), "components": self.components, "fit_seconds": self.fit_seconds}
         for key in ("loo_error", "loo_coverage"):
             value = getattr(self, key)
             out[key] = None if value is None else [float(v) for v in value]

@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import math
+import time
 import numbers
 import warnings
 from collections.abc import Callable, Sequence
@@ -32,12 +33,16 @@ from ..engine.model import evaluate
 from ..engine.sampling import Parameter
 from ..engine.thresholds import Thresholds
 from .design import RunStore, extremes, farthest_points, sobol_points
-from .emulator import EmulatorError, SensorEmulators
+from .basis import VARIANCE_KEPT, emulators
+from .emulator import EmulatorError
 from .result import AdaptiveResult, WaveRecord
 from .screen import required_margin, screen
 
 #: Kept points recorded per wave for plots.
 KEPT_SAMPLE = 400
+
+#: With ``basis = "auto"``, more sensors than this are emulated on principal components.
+PCA_SENSORS = 10
 
 
 def _parameters(bounds) -> tuple[Parameter, ...]:
@@ -66,7 +71,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                      n_initial: int | None = None, wave_size: int | None = None, n_screen: int = 10**6,
                      c: float = 3.0, seed: int = 0, final_size: int | None = None, max_waves: int = 20, volume_tolerance: float = 0.05,
                      sigma_tolerance: float = 0.05, validation_coverage: float = 0.9,
-                     nan: str = "raise") -> AdaptiveResult:
+                     nan: str = "raise", basis: str = "auto", variance_kept: float = VARIANCE_KEPT) -> AdaptiveResult:
     """EDMF with an emulator steering where the real model runs (issue 16).
 
     Parameters
@@ -107,6 +112,15 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     nan
         ``"raise"``: a NaN output is an error naming the run; ``"falsify"``:
         such runs are falsified and left out of the emulator.
+    basis
+        ``"sensors"``: a GP per sensor; ``"pca"``: GPs on the leading
+        principal components of the standardised outputs, their variance
+        propagated back to every sensor with the truncation residual
+        (:mod:`edmf_rs.adaptive.basis`); ``"auto"`` (default): ``"pca"``
+        when there are more than 10 sensors.
+    variance_kept
+        With the PCA basis, the share of the standardised outputs' variance
+        the kept components explain (default 0.999).
 
     Returns
     -------
@@ -134,6 +148,8 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
     if nan not in ("raise", "falsify"):
         raise ValueError(f"nan: expected 'raise' or 'falsify', got {nan!r}")
+    if basis not in ("auto", "sensors", "pca"):
+        raise ValueError(f"basis: expected 'auto', 'sensors' or 'pca', got {basis!r}")
     params = _parameters(bounds)
     p = len(params)
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
@@ -161,6 +177,11 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     volume_tolerance = _real(volume_tolerance, "volume_tolerance", 0.0, 1.0)
     sigma_tolerance = _real(sigma_tolerance, "sigma_tolerance", 0.0)
     validation_coverage = _real(validation_coverage, "validation_coverage", 0.0, 1.0)
+    variance_kept = _real(variance_kept, "variance_kept", 0.0, 1.0)
+    if variance_kept == 0.0:
+        raise ValueError("variance_kept: expected a share in (0, 1], got 0")
+    if basis == "auto":
+        basis = "pca" if n_m > PCA_SENSORS else "sensors"
     max_waves = positive_int(max_waves, "max_waves")
     if isinstance(seed, bool) or not isinstance(seed, numbers.Integral):
         raise TypeError(f"seed: expected an integer, got {type(seed).__name__}")
@@ -195,7 +216,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
 
     def mean_passes(u: np.ndarray) -> np.ndarray:
         """Eq. 8 on the current emulator's mean."""
-        r = np.column_stack([emulator._mean(j, u) for j in range(n_m)]) - y
+        r = emulator.mean(u) - y
         return ((r >= thresholds.low) & (r <= thresholds.high)).all(axis=1)
 
     def screen_set(points: np.ndarray):
@@ -225,7 +246,10 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
             # last search or the emulator failed validation; else only refactorised.
             optimize = (emulator is None or not waves or not waves[-1].validated
                         or finite.sum() >= 1.5 * optimized_at[0])
-            emulator = SensorEmulators(store.u[finite], store.g[finite], previous=emulator, optimize=optimize)
+            began = time.perf_counter()
+            emulator = emulators(store.u[finite], store.g[finite], basis, previous=emulator, optimize=optimize,
+                                 variance_kept=variance_kept)
+            fit_seconds = time.perf_counter() - began
             if optimize:
                 optimized_at[0] = int(finite.sum())
             problems += emulator.problems
@@ -265,7 +289,8 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                             mean_kept_fraction=volume * mean_kept.size / n_screen, validated=validation.ok,
                             loo_error=validation.error, loo_coverage=validation.coverage, sigma_ratio=sigma_ratio,
                             min_required_c=float(need.min()), kept_sample=to_domain(points[sample]),
-                            problems=tuple(problems))
+                            problems=tuple(problems), components=getattr(emulator, "n_components", None),
+                            fit_seconds=fit_seconds)
         return record, points, kept, mean_kept, need
 
     spent = run(domain_design(n_initial), 0)

@@ -17,13 +17,15 @@ Options (all but ``method`` optional)::
     n_screen = 1048576    # emulator screening sample
     c = 3.0               # screening margin, emulator standard deviations
     seed = 0
+    basis = "auto"        # emulators per sensor ("sensors") or on principal components
+                          # of the outputs ("pca"); "auto": "pca" above 10 sensors
 """
 
 from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from html import escape
 from pathlib import Path
 
@@ -35,7 +37,7 @@ from ..adaptive.waves import adaptive_falsify
 from ..stream.atomic import write_bytes, write_text
 from .result import Identification, _clean
 
-KEYS = ("method", "budget", "n_initial", "wave_size", "n_screen", "c", "seed")
+KEYS = ("method", "budget", "n_initial", "wave_size", "n_screen", "c", "seed", "basis")
 
 
 @dataclass(frozen=True)
@@ -49,12 +51,21 @@ class AdaptiveSampling:
     n_screen: int = 2**20
     c: float = 3.0
     seed: int = 0
+    basis: str = "auto"
     method: str = "adaptive"
     points: None = None
 
     @property
     def n(self) -> int:
         return self.budget
+
+    def head(self, k: int = 2) -> np.ndarray:
+        """The first ``k`` runs of the initial design (to check the model and the
+        prognoses on before a run, as ``Sampling.head`` does)."""
+        from ..adaptive.design import sobol_points
+
+        u = sobol_points(k, len(self.parameters), self.seed)
+        return np.column_stack([q.from_unit(u[:, j]) for j, q in enumerate(self.parameters)])
 
     def describe(self) -> str:
         return f"adaptive (emulator-steered waves), budget {self.budget:,} runs, seed {self.seed}"
@@ -76,11 +87,44 @@ def adaptive_sampling(table, parameters) -> AdaptiveSampling:
         raise table.error("c", "a number >= 0", c)
     return AdaptiveSampling(parameters, budget=count("budget", 40 * p + 200), n_initial=count("n_initial", None, p + 1),
                             wave_size=count("wave_size", None), n_screen=count("n_screen", 2**20),
-                            c=c, seed=table.get("seed", "int", 0))
+                            c=c, seed=table.get("seed", "int", 0),
+                            basis=table.get("basis", "choice", "auto", choices=("auto", "sensors", "pca")))
 
 
-def run_adaptive(project, *, progress: bool = True):
-    """Runs an adaptive project: the waves, then the diagnostics on every real run."""
+def adaptive_evaluator(project, out, workers):
+    """The simulators' evaluator for the real runs of an adaptive project, or None.
+
+    As for a sampled project (:func:`edmf_rs.project.external.make_evaluator`:
+    external programs, workers, failures), but its prediction store finds a
+    run by its parameters, not its position in a sample: where the waves put
+    runs depends on the thresholds, so a rerun with another phi or another
+    uncertainty source reuses every run it asks for again, and a killed run
+    resumes without repeating one.
+    """
+    from ..simulators import FailurePolicy
+    from ..simulators.keyed import KeyedEvaluator
+
+    m = project.model
+    workers = m.workers if workers is None else workers
+    if m.predictions is not None or (out is None and project.command is None and workers == 1):
+        return None
+    names = [s.name for s in project.all_sensors]
+    # Where the runs go does not change what the model gives there: only the names key the store.
+    sampling = {"method": "adaptive", "parameters": list(project.parameter_names), "sensors": names}
+    return KeyedEvaluator(project.parameter_names, names, project.sampling.budget, command=project.command,
+                          function=project.model_function, ref=m.function or "", path=m.path, options=m.options,
+                          workers=workers, out=out, sampling=sampling, store=m.store,
+                          policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate))
+
+
+def run_adaptive(project, *, progress: bool = True, out=None, workers: int | None = None):
+    """Runs an adaptive project: the waves, then the diagnostics on every real run.
+
+    With ``out`` (or an external program, or ``workers`` > 1) every real run
+    goes through the simulators' evaluator and its prediction store
+    (:func:`adaptive_evaluator`); failed runs (external programs) are NaN rows:
+    neither candidates nor falsified, listed in failures.csv.
+    """
     from ..engine.thresholds import threshold_bounds
     from .diagnostics import SensitivityTracker, leave_one_out
     from .qoi import prognosis_of
@@ -91,16 +135,24 @@ def run_adaptive(project, *, progress: bool = True):
     s = project.sampling
     combined = project.combined_uncertainty()
     thresholds = threshold_bounds(combined, project.phi, project.correction)
-    model = project._checked_model()  # outputs matched to the sensors by name, failures named
+    evaluator = adaptive_evaluator(project, out, workers)
     try:
+        model = project._checked_model(evaluator)  # outputs matched to the sensors by name, failures named
         result = adaptive_falsify(model, project.parameters, project.measured, thresholds, budget=s.budget,
                                   n_initial=s.n_initial, wave_size=s.wave_size, n_screen=s.n_screen, c=s.c,
-                                  seed=s.seed, nan=project.model.nan)
+                                  seed=s.seed, basis=s.basis, nan="falsify" if project.command else project.model.nan)
     except ProjectError:
         raise
     except ValueError as exc:
         raise ProjectError(f"{project.file}: sampling: {exc}") from None
+    finally:
+        if evaluator is not None:
+            evaluator.close()
     falsification = result.falsification
+    if project.command is not None and falsification.n_invalid and falsification.per_sensor_falsified is not None:
+        # A failed run's row is all NaN, counted against every sensor: failed runs are not falsified.
+        falsification = replace(falsification,
+                                per_sensor_falsified=falsification.per_sensor_falsified - falsification.n_invalid)
     tracker = SensitivityTracker(thresholds, combined, project.measured)
     sample = PlotSample(result.n_runs)
     tracker(0, result.run_parameters, result.run_predictions)
@@ -115,7 +167,8 @@ def run_adaptive(project, *, progress: bool = True):
     ident = Identification(project=project, combined=combined, thresholds=thresholds, falsification=falsification,
                            leave_one_out=leave_one_out(falsification, project.sensor_names),
                            sensitivity=tracker.finish(), candidates=candidates, prognoses=prognoses,
-                           sample=sample.finish(falsification.candidate_mask), elapsed=time.perf_counter() - start)
+                           sample=sample.finish(falsification.candidate_mask), elapsed=time.perf_counter() - start,
+                           evaluation=evaluator.stats() if evaluator is not None else None)
     return AdaptiveIdentification(**{f: getattr(ident, f) for f in ident.__dataclass_fields__}, adaptive=result)
 
 

@@ -358,7 +358,7 @@ class Project:
         if getattr(self.sampling, "method", None) == "adaptive":  # waves of real runs (issue 16)
             from .adaptive import run_adaptive
 
-            return run_adaptive(self, progress=progress)
+            return run_adaptive(self, progress=progress, out=out, workers=workers)
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)

@@ -86,6 +86,9 @@ class PredictionStore:
     2
     """
 
+    #: Format written to manifest.json (a subclass with other rows sets its own).
+    schema = SCHEMA
+
     def __init__(self, root, fingerprint: dict, parameters, sensors):
         text = json.dumps(fingerprint, sort_keys=True, default=str)
         self.key = hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -95,7 +98,7 @@ class PredictionStore:
         manifest = self.folder / "manifest.json"
         if not manifest.is_file():
             self.folder.mkdir(parents=True, exist_ok=True)
-            write_text(manifest, json.dumps({"schema": SCHEMA, "fingerprint": json.loads(text),
+            write_text(manifest, json.dumps({"schema": self.schema, "fingerprint": json.loads(text),
                                              "parameters": self.parameters, "sensors": self.sensors},
                                             indent=1) + "\n")
         self.parts = sorted((int(m.group(1)), int(m.group(2)), p) for p in self.folder.glob("part-*.parquet")
