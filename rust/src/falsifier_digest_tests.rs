@@ -2,7 +2,7 @@
 //! (`update_digested`) is the one a separate `RowDigest` pass gives, whatever
 //! the chunking, thread count, mode, dtype or layout.
 
-use crate::digest::{RowDigest, BLOCK_ROWS, LEAF_ROWS};
+use crate::digest::{RowDigest, BLOCK_ROWS, PIECE_ROWS as LEAF_ROWS};
 use crate::falsifier::{Falsifier, Mode};
 use crate::matrix::Matrix;
 use crate::testing::uniform;
