@@ -139,8 +139,8 @@ pub fn sum_with<T: Value>(isa: Isa, values: &[T], k0: u64, s: &mut Sums) {
     #[cfg(target_arch = "x86_64")]
     let lanes = match isa {
         // SAFETY: the CPU runs the level (checked by `supported`).
-        Isa::Avx512 if m > 0 && isa.supported() => Some(unsafe { crate::simd::checksum::groups_avx512(groups) }),
-        Isa::Avx2 if m > 0 && isa.supported() => Some(unsafe { crate::simd::checksum::groups_avx2(groups) }),
+        Isa::Avx512 if m > 0 && isa.supported() => Some(unsafe { T::groups_avx512(groups) }),
+        Isa::Avx2 if m > 0 && isa.supported() => Some(unsafe { T::groups_avx2(groups) }),
         _ => None,
     };
     #[cfg(not(target_arch = "x86_64"))]
@@ -190,6 +190,42 @@ pub fn part_with<T: Value>(isa: Isa, m: Matrix<'_, T>, first_row: u64, buf: &mut
 /// [`part_with`] at the fastest level of this CPU.
 pub fn part<T: Value>(m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<f64>) -> Part {
     part_with(Isa::detect(), m, first_row, buf)
+}
+
+/// Bytes of input summed right after the kernel has read them: a few
+/// kilobytes, so they are still in L1 and the kernel's prefetches of the
+/// next rows stay in flight meanwhile (the sums' additions then hide under
+/// the memory stream instead of adding to it).
+const INTERLEAVE_BYTES: usize = 16 << 10;
+
+/// [`part`] of the rows of `m`, computed a few kilobytes at a time, each
+/// right after `kernel(r0, r1)` has been called on rows `r0..r1` of `m`
+/// (every row once, in order).
+pub fn part_after<T: Value>(
+    m: Matrix<'_, T>,
+    first_row: u64,
+    buf: &mut Vec<f64>,
+    mut kernel: impl FnMut(usize, usize),
+) -> Part {
+    let isa = Isa::detect();
+    let row_bytes = (m.cols() * std::mem::size_of::<T>()).max(1);
+    let step = (INTERLEAVE_BYTES / row_bytes).clamp(16, PIECE_ROWS);
+    let block = |row: u64| row / BLOCK_ROWS as u64;
+    let mut p = Part::default();
+    let mut r = 0;
+    while r < m.rows() {
+        let e = (r + step).min(m.rows());
+        kernel(r, e);
+        let q = part_with(isa, m.slice_rows(r, e), first_row + r as u64, buf);
+        if block(first_row + r as u64) == block(first_row) {
+            p.first.add(&q.first);
+            p.second.add(&q.second);
+        } else {
+            p.second.add(&q.first); // (q.second is empty: rows span fewer than BLOCK_ROWS)
+        }
+        r = e;
+    }
+    p
 }
 
 /// Adds the sums of rows `m` (row `row` of their block onwards) to `s`.

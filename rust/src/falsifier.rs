@@ -359,11 +359,16 @@ fn diagnose_parallel<T: Prediction + Value>(
             |(mut t, mut buf), (k, ((o, count), slot))| {
                 let first = k * BLOCK_ROWS;
                 let rows = m.slice_rows(first, first + o.len());
-                diagnose(rows, b, o, &mut t);
-                *count = candidates_in(o);
-                if let Some(base) = sum_from {
-                    *slot = digest::part(rows, base + first as u64, &mut buf); // rows just read: in cache
+                match sum_from {
+                    // Each few kilobytes summed right after the kernel read them (in L1).
+                    Some(base) => {
+                        *slot = digest::part_after(rows, base + first as u64, &mut buf, |r0, r1| {
+                            diagnose(rows.slice_rows(r0, r1), b, &mut o[r0..r1], &mut t)
+                        })
+                    }
+                    None => diagnose(rows, b, o, &mut t),
                 }
+                *count = candidates_in(o);
                 (t, buf)
             },
         )
@@ -389,11 +394,16 @@ fn screen_parallel<T: Prediction + Value>(
         .for_each_init(Vec::new, |buf, (k, ((o, count), slot))| {
             let first = k * BLOCK_ROWS;
             let rows = m.slice_rows(first, first + o.len());
-            screen(rows, b, plan, o);
-            *count = candidates_in(o);
-            if let Some(base) = sum_from {
-                *slot = digest::part(rows, base + first as u64, buf); // rows just read: in cache
+            match sum_from {
+                // Each few kilobytes summed right after the kernel read them (in L1).
+                Some(base) => {
+                    *slot = digest::part_after(rows, base + first as u64, buf, |r0, r1| {
+                        screen(rows.slice_rows(r0, r1), b, plan, &mut o[r0..r1])
+                    })
+                }
+                None => screen(rows, b, plan, o),
             }
+            *count = candidates_in(o);
         })
 }
 

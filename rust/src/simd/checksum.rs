@@ -19,95 +19,99 @@ pub type Groups = [[u64; 8]; 4];
 
 /// A prediction type read as canonical words (the bits of its float64 value).
 pub trait Words: Copy {
-    /// Eight values from `p` as the bits of their float64 values.
-    /// # Safety: eight values are readable at `p`; AVX-512F is available.
-    unsafe fn load8_512(p: *const Self) -> __m512i;
-    /// Four values from `p` as the bits of their float64 values.
-    /// # Safety: four values are readable at `p`; AVX2 is available.
-    unsafe fn load4_256(p: *const Self) -> __m256i;
+    /// The lane sums of the `values.len() / 8` whole groups of `values`.
+    /// # Safety: AVX-512F is available.
+    unsafe fn groups_avx512(values: &[Self]) -> Groups;
+    /// As `groups_avx512`, lanes 0-3 and 4-7 in two AVX2 registers.
+    /// # Safety: AVX2 is available.
+    unsafe fn groups_avx2(values: &[Self]) -> Groups;
 }
 
+/// The AVX-512 loop, with `$load(p)` giving eight words from `p` (written
+/// out per type so that the load is inlined into the loop).
+macro_rules! groups_avx512 {
+    ($name:ident, $t:ty, $load:expr) => {
+        #[target_feature(enable = "avx512f")]
+        unsafe fn $name(values: &[$t]) -> Groups {
+            let m = values.len() / 8;
+            let p = values.as_ptr();
+            let (mut s1, mut h1) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+            let (mut s2, mut h2) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+            for t in 0..m {
+                // SAFETY: group t lies within `values` (t < len / 8).
+                let x = unsafe { $load(p.add(8 * t)) };
+                s1 = _mm512_add_epi64(s1, x);
+                h1 = _mm512_add_epi64(h1, _mm512_srli_epi64::<32>(x));
+                s2 = _mm512_add_epi64(s2, s1);
+                h2 = _mm512_add_epi64(h2, h1);
+            }
+            let mut out = [[0u64; 8]; 4];
+            for (o, v) in out.iter_mut().zip([s1, h1, s2, h2]) {
+                // SAFETY: `o` holds exactly 64 bytes.
+                unsafe { _mm512_storeu_si512(o.as_mut_ptr() as *mut __m512i, v) };
+            }
+            out
+        }
+    };
+}
+
+/// The AVX2 loop, with `$load(p)` giving four words from `p`.
+macro_rules! groups_avx2 {
+    ($name:ident, $t:ty, $load:expr) => {
+        #[target_feature(enable = "avx2")]
+        unsafe fn $name(values: &[$t]) -> Groups {
+            let m = values.len() / 8;
+            let p = values.as_ptr();
+            let z = _mm256_setzero_si256();
+            let (mut s1, mut h1, mut s2, mut h2) = ([z; 2], [z; 2], [z; 2], [z; 2]);
+            for t in 0..m {
+                for half in 0..2 {
+                    // SAFETY: group t lies within `values` (t < len / 8).
+                    let x = unsafe { $load(p.add(8 * t + 4 * half)) };
+                    s1[half] = _mm256_add_epi64(s1[half], x);
+                    h1[half] = _mm256_add_epi64(h1[half], _mm256_srli_epi64::<32>(x));
+                    s2[half] = _mm256_add_epi64(s2[half], s1[half]);
+                    h2[half] = _mm256_add_epi64(h2[half], h1[half]);
+                }
+            }
+            let mut out = [[0u64; 8]; 4];
+            for (o, v) in out.iter_mut().zip([s1, h1, s2, h2]) {
+                for half in 0..2 {
+                    // SAFETY: each half of `o` holds exactly 32 bytes.
+                    unsafe { _mm256_storeu_si256(o.as_mut_ptr().add(4 * half) as *mut __m256i, v[half]) };
+                }
+            }
+            out
+        }
+    };
+}
+
+groups_avx512!(f64_avx512, f64, |p: *const f64| _mm512_loadu_si512(p as *const __m512i));
+// Exact widening, as `f64::from` (the same conversion instruction).
+groups_avx512!(f32_avx512, f32, |p: *const f32| _mm512_castpd_si512(_mm512_cvtps_pd(_mm256_loadu_ps(p))));
+groups_avx2!(f64_avx2, f64, |p: *const f64| _mm256_loadu_si256(p as *const __m256i));
+groups_avx2!(f32_avx2, f32, |p: *const f32| _mm256_castpd_si256(_mm256_cvtps_pd(_mm_loadu_ps(p))));
+
 impl Words for f64 {
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn load8_512(p: *const f64) -> __m512i {
-        _mm512_loadu_si512(p as *const __m512i)
+    unsafe fn groups_avx512(values: &[f64]) -> Groups {
+        // SAFETY: the caller guarantees AVX-512F.
+        unsafe { f64_avx512(values) }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn load4_256(p: *const f64) -> __m256i {
-        _mm256_loadu_si256(p as *const __m256i)
+    unsafe fn groups_avx2(values: &[f64]) -> Groups {
+        // SAFETY: the caller guarantees AVX2.
+        unsafe { f64_avx2(values) }
     }
 }
 
 impl Words for f32 {
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn load8_512(p: *const f32) -> __m512i {
-        // Exact widening, as `f64::from` (the same conversion instruction).
-        _mm512_castpd_si512(_mm512_cvtps_pd(_mm256_loadu_ps(p)))
+    unsafe fn groups_avx512(values: &[f32]) -> Groups {
+        // SAFETY: the caller guarantees AVX-512F.
+        unsafe { f32_avx512(values) }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn load4_256(p: *const f32) -> __m256i {
-        _mm256_castpd_si256(_mm256_cvtps_pd(_mm_loadu_ps(p)))
+    unsafe fn groups_avx2(values: &[f32]) -> Groups {
+        // SAFETY: the caller guarantees AVX2.
+        unsafe { f32_avx2(values) }
     }
-}
-
-/// The lane sums of the `values.len() / 8` whole groups of `values`.
-///
-/// # Safety
-/// AVX-512F is available.
-#[target_feature(enable = "avx512f")]
-pub unsafe fn groups_avx512<T: Words>(values: &[T]) -> Groups {
-    let m = values.len() / 8;
-    let p = values.as_ptr();
-    let (mut s1, mut h1) = (_mm512_setzero_si512(), _mm512_setzero_si512());
-    let (mut s2, mut h2) = (_mm512_setzero_si512(), _mm512_setzero_si512());
-    for t in 0..m {
-        // SAFETY: group t lies within `values` (t < len / 8).
-        let x = unsafe { T::load8_512(p.add(8 * t)) };
-        s1 = _mm512_add_epi64(s1, x);
-        h1 = _mm512_add_epi64(h1, _mm512_srli_epi64::<32>(x));
-        s2 = _mm512_add_epi64(s2, s1);
-        h2 = _mm512_add_epi64(h2, h1);
-    }
-    let mut out = [[0u64; 8]; 4];
-    for (o, v) in out.iter_mut().zip([s1, h1, s2, h2]) {
-        // SAFETY: `o` holds exactly 64 bytes.
-        unsafe { _mm512_storeu_si512(o.as_mut_ptr() as *mut __m512i, v) };
-    }
-    out
-}
-
-/// As [`groups_avx512`], lanes 0-3 and 4-7 in two AVX2 registers.
-///
-/// # Safety
-/// AVX2 is available.
-#[target_feature(enable = "avx2")]
-pub unsafe fn groups_avx2<T: Words>(values: &[T]) -> Groups {
-    let m = values.len() / 8;
-    let p = values.as_ptr();
-    let z = _mm256_setzero_si256();
-    let (mut s1, mut h1, mut s2, mut h2) = ([z; 2], [z; 2], [z; 2], [z; 2]);
-    for t in 0..m {
-        for half in 0..2 {
-            // SAFETY: group t lies within `values` (t < len / 8).
-            let x = unsafe { T::load4_256(p.add(8 * t + 4 * half)) };
-            s1[half] = _mm256_add_epi64(s1[half], x);
-            h1[half] = _mm256_add_epi64(h1[half], _mm256_srli_epi64::<32>(x));
-            s2[half] = _mm256_add_epi64(s2[half], s1[half]);
-            h2[half] = _mm256_add_epi64(h2[half], h1[half]);
-        }
-    }
-    let mut out = [[0u64; 8]; 4];
-    for (o, v) in out.iter_mut().zip([s1, h1, s2, h2]) {
-        for half in 0..2 {
-            // SAFETY: each half of `o` holds exactly 32 bytes.
-            unsafe { _mm256_storeu_si256(o.as_mut_ptr().add(4 * half) as *mut __m256i, v[half]) };
-        }
-    }
-    out
 }
