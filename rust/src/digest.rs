@@ -270,7 +270,10 @@ pub fn finish(cols: usize, rows: usize, s: &Sums) -> u128 {
         words.extend_from_slice(lanes);
     }
     let forward = words.iter().fold(0x6564_6d66_5f72_7331u64, |h, &w| fmix64(h ^ w));
-    let backward = words.iter().rev().fold(0x9e37_79b9_7f4a_7c15u64, |h, &w| fmix64(h ^ w));
+    let backward = words
+        .iter()
+        .rev()
+        .fold(0x9e37_79b9_7f4a_7c15u64, |h, &w| fmix64(h ^ w));
     (u128::from(forward) << 64) | u128::from(backward)
 }
 
@@ -352,9 +355,16 @@ impl RowDigest {
         let n = (self.n_rows % BLOCK_ROWS as u64) as usize + rows;
         let mut sums = Vec::new();
         sums.try_reserve(n / BLOCK_ROWS + 2)
-            .map_err(|_| EdmfError::OutOfMemory { what: "block checksums", elements: n / BLOCK_ROWS + 2 })?;
+            .map_err(|_| EdmfError::OutOfMemory {
+                what: "block checksums",
+                elements: n / BLOCK_ROWS + 2,
+            })?;
         sums.resize(n / BLOCK_ROWS + 2, Sums::default());
-        Ok(Pending { first_row: self.n_rows, rows, sums })
+        Ok(Pending {
+            first_row: self.n_rows,
+            rows,
+            sums,
+        })
     }
 
     /// Feeds the next rows (any strides, float64 or float32), summed in
@@ -368,7 +378,11 @@ impl RowDigest {
                 .into_par_iter()
                 .map_init(Vec::new, |buf, p| {
                     let s = p * PIECE_ROWS;
-                    part(m.slice_rows(s, (s + PIECE_ROWS).min(m.rows())), first + s as u64, buf)
+                    part(
+                        m.slice_rows(s, (s + PIECE_ROWS).min(m.rows())),
+                        first + s as u64,
+                        buf,
+                    )
                 })
                 .collect()
         });
@@ -387,7 +401,10 @@ impl RowDigest {
         if pending.first_row != self.n_rows {
             return Err(EdmfError::invalid(
                 "pending",
-                format!("sums from row {} fed after row {}", pending.first_row, self.n_rows),
+                format!(
+                    "sums from row {} fed after row {}",
+                    pending.first_row, self.n_rows
+                ),
             ));
         }
         if pending.rows == 0 {

@@ -36,7 +36,11 @@ fn every_level_gives_the_sums_of_the_definition() {
     let levels = Isa::available();
     assert!(levels.contains(&Isa::Portable));
     for trial in 0..200 {
-        let len = if trial % 10 == 0 { 4000 } else { (uniform(&mut state) * 80.0) as usize };
+        let len = if trial % 10 == 0 {
+            4000
+        } else {
+            (uniform(&mut state) * 80.0) as usize
+        };
         let start = (uniform(&mut state) * 900.0) as usize;
         let k0 = (uniform(&mut state) * 3e9) as u64; // large steps: the weights wrap
         let mut want = Sums::default();
@@ -103,7 +107,10 @@ fn layout_and_float32_give_the_digest_of_the_values() {
     a.update(Matrix::row_major(&c, rows, cols).unwrap(), &p).unwrap();
     assert!(a.partial().is_some());
     assert_eq!(feed(Matrix::col_major(&f, rows, cols).unwrap()), a.partial());
-    assert_eq!(feed(Matrix::new(&padded, rows, cols, cols + 2, 1).unwrap()), a.partial());
+    assert_eq!(
+        feed(Matrix::new(&padded, rows, cols, cols + 2, 1).unwrap()),
+        a.partial()
+    );
 }
 
 #[test]
@@ -133,13 +140,20 @@ fn swapped_rows_swapped_columns_and_flipped_bits_are_detected() {
         let data = random(rows * cols, &mut state);
         let want = block(&data, cols);
         for _ in 0..4 {
-            let (r1, r2) = ((uniform(&mut state) * rows as f64) as usize, (uniform(&mut state) * rows as f64) as usize);
+            let (r1, r2) = (
+                (uniform(&mut state) * rows as f64) as usize,
+                (uniform(&mut state) * rows as f64) as usize,
+            );
             if r1 != r2 {
                 let mut swapped = data.clone();
                 for c in 0..cols {
                     swapped.swap(r1 * cols + c, r2 * cols + c);
                 }
-                assert_ne!(block(&swapped, cols), want, "rows {r1}, {r2} of {cols} columns swapped");
+                assert_ne!(
+                    block(&swapped, cols),
+                    want,
+                    "rows {r1}, {r2} of {cols} columns swapped"
+                );
             }
             let word = (uniform(&mut state) * (rows * cols) as f64) as usize;
             let bit = (uniform(&mut state) * 64.0) as u32;
@@ -153,7 +167,11 @@ fn swapped_rows_swapped_columns_and_flipped_bits_are_detected() {
                 for r in 0..rows {
                     swapped.swap(r * cols + c1, r * cols + c2);
                 }
-                assert_ne!(block(&swapped, cols), want, "columns {c1}, {c2} of {cols} swapped");
+                assert_ne!(
+                    block(&swapped, cols),
+                    want,
+                    "columns {c1}, {c2} of {cols} swapped"
+                );
             }
         }
         // The sign of a whole column: the changes are all 2^63, which plain
@@ -172,7 +190,9 @@ fn any_change_of_two_words_in_a_lane_is_detected() {
     // 2.0 (2^52 apart) swapped, or two signs flipped, in one lane at step
     // distances that are powers of two (so weight times difference is 0 mod 2^64).
     let cols = 8;
-    let data: Vec<f64> = (0..BLOCK_ROWS * cols).map(|k| if k % 3 == 0 { 2.0 } else { -1.0 }).collect();
+    let data: Vec<f64> = (0..BLOCK_ROWS * cols)
+        .map(|k| if k % 3 == 0 { 2.0 } else { -1.0 })
+        .collect();
     for shift in [1usize, 2, 4096, 32768] {
         let (k1, k2) = (8 * 5 + 3, 8 * (5 + shift) + 3); // same lane, `shift` steps apart
         for (x, y) in [(1.5, -1.5), (1.0, 2.0)] {
@@ -182,12 +202,20 @@ fn any_change_of_two_words_in_a_lane_is_detected() {
             let mut other = data.clone();
             other[k1] = y;
             other[k2] = x;
-            assert_ne!(block(&one, cols), block(&other, cols), "{x} and {y} swapped {shift} steps apart");
+            assert_ne!(
+                block(&one, cols),
+                block(&other, cols),
+                "{x} and {y} swapped {shift} steps apart"
+            );
         }
         let mut two_signs = data.clone();
         two_signs[k1] = -two_signs[k1];
         two_signs[k2] = -two_signs[k2];
-        assert_ne!(block(&two_signs, cols), block(&data, cols), "two signs flipped {shift} steps apart");
+        assert_ne!(
+            block(&two_signs, cols),
+            block(&data, cols),
+            "two signs flipped {shift} steps apart"
+        );
     }
 }
 

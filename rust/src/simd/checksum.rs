@@ -86,11 +86,19 @@ macro_rules! groups_avx2 {
     };
 }
 
-groups_avx512!(f64_avx512, f64, |p: *const f64| _mm512_loadu_si512(p as *const __m512i));
+groups_avx512!(f64_avx512, f64, |p: *const f64| _mm512_loadu_si512(
+    p as *const __m512i
+));
 // Exact widening, as `f64::from` (the same conversion instruction).
-groups_avx512!(f32_avx512, f32, |p: *const f32| _mm512_castpd_si512(_mm512_cvtps_pd(_mm256_loadu_ps(p))));
-groups_avx2!(f64_avx2, f64, |p: *const f64| _mm256_loadu_si256(p as *const __m256i));
-groups_avx2!(f32_avx2, f32, |p: *const f32| _mm256_castpd_si256(_mm256_cvtps_pd(_mm_loadu_ps(p))));
+groups_avx512!(f32_avx512, f32, |p: *const f32| _mm512_castpd_si512(
+    _mm512_cvtps_pd(_mm256_loadu_ps(p))
+));
+groups_avx2!(f64_avx2, f64, |p: *const f64| _mm256_loadu_si256(
+    p as *const __m256i
+));
+groups_avx2!(f32_avx2, f32, |p: *const f32| _mm256_castpd_si256(
+    _mm256_cvtps_pd(_mm_loadu_ps(p))
+));
 
 impl Words for f64 {
     unsafe fn groups_avx512(values: &[f64]) -> Groups {
