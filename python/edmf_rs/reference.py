@@ -235,6 +235,8 @@ class RowChecksums:
         Checksum of the rows after the last complete block, None if there are none.
     n_rows : int
         Rows summed.
+
+    Examples: see `row_checksums`.
     """
 
     blocks: tuple[str, ...]

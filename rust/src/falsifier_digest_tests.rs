@@ -19,7 +19,7 @@ fn falsifier(n_m: usize, mode: Mode) -> Falsifier {
     Falsifier::new(&vec![0.0; n_m], &thr, mode, mode == Mode::Diagnose).unwrap()
 }
 
-/// Random chunk lengths (some short, some longer than a leaf or a slab).
+/// Random chunk lengths (some short, some longer than a piece or a slab).
 fn chunking(rows: usize, state: &mut u64) -> Vec<usize> {
     let mut cuts = Vec::new();
     let mut left = rows;
