@@ -97,8 +97,10 @@ def screen_emulator(
     c: float,
 ) -> tuple[npt.NDArray[np.uint64], list[int]]: ...
 class RowDigest:
-    """Content digest of rows fed in instance order, one per fixed block of instances."""
+    """Block checksums (``algorithm``, see rust/src/digest.rs) of rows fed in instance order, one per
+    fixed block of instances: a guard against accidental change of the input, not tampering."""
 
+    algorithm: str
     block_rows: int
     def __init__(self) -> None: ...
     def update(self, chunk: npt.NDArray[np.float64] | npt.NDArray[np.float32]) -> None: ...

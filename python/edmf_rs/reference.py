@@ -7,6 +7,7 @@ follows the paper's equations line by line.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -215,6 +216,105 @@ def falsify(predictions, measurements, thresholds: Thresholds) -> FalsificationR
         n_violated=n_violated.astype(np.int32),
     )
 # Measurement-system design (joint entropy, greedy placement, expected identifiability):
+#: The checkpoint's block checksum (``rust/src/digest.rs``): lanes, block size, constants.
+CHECKSUM_LANES = 8
+CHECKSUM_BLOCK_ROWS = 65_536
+_M64 = (1 << 64) - 1
+_TAG = int.from_bytes(b"fl64x8/1", "little")
+
+
+@dataclass(frozen=True)
+class RowChecksums:
+    """Block checksums of rows (see `row_checksums`).
+
+    Attributes
+    ----------
+    blocks : tuple of str
+        32-hex checksum of each complete block (block k: instances k*65536 ..).
+    partial : str or None
+        Checksum of the rows after the last complete block, None if there are none.
+    n_rows : int
+        Rows summed.
+
+    Examples: see `row_checksums`.
+    """
+
+    blocks: tuple[str, ...]
+    partial: str | None
+    n_rows: int
+
+
+def _fmix64(x: int) -> int:
+    """MurmurHash3's 64-bit finaliser (a bijection of 64-bit words)."""
+    x ^= x >> 33
+    x = (x * 0xFF51AFD7ED558CCD) & _M64
+    x ^= x >> 33
+    x = (x * 0xC4CEB9FE1A85EC53) & _M64
+    return x ^ (x >> 33)
+
+
+def _block_checksum(words: np.ndarray, cols: int, rows: int) -> str:
+    """Lane sums A, H, B, G of one block's canonical words, mixed into 128 bits."""
+    k = np.arange(words.size, dtype=np.uint64)
+    lane, step, high = k % CHECKSUM_LANES, k // CHECKSUM_LANES, words >> np.uint64(32)
+    sums = []
+    for values in (words, high, step * words, step * high):  # uint64: wraps modulo 2**64
+        sums += [int(values[lane == lane_].sum(dtype=np.uint64)) for lane_ in range(CHECKSUM_LANES)]
+    state = [_TAG, cols, rows, *sums]
+    forward, backward = 0x6564_6D66_5F72_7331, 0x9E37_79B9_7F4A_7C15
+    for w in state:
+        forward = _fmix64(forward ^ w)
+    for w in reversed(state):
+        backward = _fmix64(backward ^ w)
+    return f"{forward:016x}{backward:016x}"
+
+
+def row_checksums(rows) -> RowChecksums:
+    """Block checksums of model-instance rows, as a checkpoint records them.
+
+    Each value is read as its canonical word (the 64 bits of its float64
+    value), row after row; word ``k`` of a block goes to lane ``k % 8`` at step
+    ``j = k // 8``, and per lane, modulo 2**64, ``A = sum w``, ``H = sum (w >> 32)``,
+    ``B = sum j w`` and ``G = sum j (w >> 32)``; the block's checksum mixes the
+    width, the row count and these sums. A guard against accidental change of
+    the input (any change of at most two words per lane is certain to show),
+    not against deliberate tampering.
+
+    Parameters
+    ----------
+    rows : array_like
+        2-D (instances x sensors) real values; any dtype, byte order or layout.
+
+    Returns
+    -------
+    RowChecksums
+        The checksum of every complete block and of the partial last one.
+
+    Raises
+    ------
+    ValueError
+        If ``rows`` is not 2-D.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from edmf_rs import reference
+    >>> got = reference.row_checksums(np.ones((3, 2)))
+    >>> got.blocks, len(got.partial), got.n_rows
+    ((), 32, 3)
+    """
+    arr = np.asarray(rows)
+    if arr.ndim != 2:
+        raise ValueError(f"rows: expected a 2-D array, got {arr.ndim} dimensions")
+    words = np.ascontiguousarray(arr, dtype=np.float64).view(np.uint64)
+    n, cols = arr.shape
+    sums = [_block_checksum(words[s:s + CHECKSUM_BLOCK_ROWS].ravel(), cols, min(CHECKSUM_BLOCK_ROWS, n - s))
+            for s in range(0, n, CHECKSUM_BLOCK_ROWS)]
+    if n % CHECKSUM_BLOCK_ROWS:
+        return RowChecksums(tuple(sums[:-1]), sums[-1], n)
+    return RowChecksums(tuple(sums), None, n)
+
+
 from .design.reference import (  # noqa: E402,F401,E501
     candidate_counts,
     draw_simulations,

@@ -1,63 +1,315 @@
-//! Content digests of model-instance rows, so a resumed run can tell that the
+//! Block checksums of model-instance rows, so a resumed run can tell that the
 //! input it re-reads is, row for row, the one its checkpoint was made from.
 //!
-//! The digest is a property of the *values*, not of how they were handed
-//! over: every value is hashed as the little-endian bytes of its float64
-//! conversion (exact for float32), in row-major order, whatever the source's
-//! dtype, memory layout or chunking. Rows are grouped in fixed leaves of
-//! [`LEAF_ROWS`] instances counted from instance 0, leaves in fixed blocks of
-//! [`BLOCK_ROWS`]; a block's digest is xxh3-128 over its width, its row count
-//! and its leaves' xxh3-64 digests. Because leaf and block boundaries depend
-//! only on the instance index, any chunking gives the same list of block
-//! digests, and the leaves inside one chunk are hashed in parallel.
+//! **What is summed.** Every value as its *canonical word*: the 64 bits of its
+//! float64 value (float32 widened exactly), in row-major instance order,
+//! whatever the source's dtype, byte order, memory layout or chunking. Rows
+//! are grouped in fixed blocks of [`BLOCK_ROWS`] instances counted from
+//! instance 0; block checksums depend on the instance index only.
 //!
-//! This is a check against accidental change (an edited or regenerated input
-//! file), not a cryptographic seal.
+//! **The checksum** ([`ALGORITHM`], a Fletcher-style sum over eight lanes).
+//! In a block of `R` rows and `C` columns, word `w_k` (`k = r C + c`) goes to
+//! lane `l = k mod 8` at step `j = k div 8`. Per lane, modulo 2^64:
+//!
+//! ```text
+//! A_l = sum w_k        H_l = sum (w_k >> 32)        (plain sums)
+//! B_l = sum j w_k      G_l = sum j (w_k >> 32)      (position-weighted sums)
+//! ```
+//!
+//! and the block's 128-bit checksum mixes `(C, R, A, H, B, G)` (see
+//! [`finish`]). [`literal`] is this definition word by word (the oracle of
+//! the tests); the vector levels ([`crate::kernel::Isa`]) compute the same
+//! sums with additions only.
+//!
+//! **Why it catches accidental change.** With 32-bit halves `lo`, `hi` of each
+//! word, `(A, H)` give the exact integer sums of the `lo` and of the `hi`
+//! halves of each lane (no sum of fewer than 2^32 halves overflows), and
+//! `(B, G)` their position-weighted sums modulo 2^64. A change with
+//! differences `d_k` (each below 2^32 in size) in one lane's halves goes
+//! unseen only if `sum d_k = 0` exactly and `sum j_k d_k = 0 mod 2^64`. With at
+//! most two changed words in a lane this forces `d = 0` as long as a lane has
+//! fewer than 2^32 steps (rows of fewer than 2^19 columns). So **every change
+//! of at most two words per lane in a block is detected, with certainty**:
+//! any one or two flipped bits, any changed value, any swap of two values,
+//! any change within one row of up to 16 columns, any swap of two rows of up
+//! to 8 columns. Larger changes (regenerated rows, swapped columns, shifted
+//! or truncated data) go unseen only if, in every lane, both halves keep their
+//! exact sum *and* their first moment, which values that changed by accident
+//! do not do (a swap of two columns, for example, is seen unless the two
+//! columns hold, in every lane, halves of equal sum and equal moment). The
+//! row count is part of every block's checksum, so a truncated block differs.
+//!
+//! This guards against accidental change (an edited, regenerated, shifted or
+//! damaged input), not deliberate tampering: anyone can make a different input
+//! with the same sums. The checkpoint's own files carry sha256 checksums.
+//!
+//! Summing instead of hashing is what makes it nearly free: the sums are
+//! additive, so any rows can be summed apart (by the falsifier's threads,
+//! right after the kernel has read them) and the parts added in any order.
 
 use crate::error::{EdmfError, Result};
+use crate::kernel::Isa;
 use crate::matrix::Matrix;
 use rayon::prelude::*;
 use rayon::ThreadPool;
-use xxhash_rust::xxh3::{xxh3_128, xxh3_64};
 
-/// Instances per leaf: the unit hashed in one piece (and in parallel).
-pub const LEAF_ROWS: usize = 1024;
+/// Name and version of the checksum, recorded in checkpoints.
+pub const ALGORITHM: &str = "fletcher64x8/1";
 /// Instances per block: the unit a checkpoint records and names when it differs.
-pub const BLOCK_ROWS: usize = 64 * LEAF_ROWS;
+pub const BLOCK_ROWS: usize = 65_536;
+/// Rows summed in one piece (one parallel task; the falsifier's kernel block).
+pub const PIECE_ROWS: usize = 1024;
+/// Lanes of the checksum.
+pub const LANES: usize = 8;
 
-/// Values a digest reads (as float64).
-pub trait Value: Copy + Send + Sync {
+#[cfg(target_arch = "x86_64")]
+use crate::simd::checksum::Words;
+#[cfg(not(target_arch = "x86_64"))]
+/// Stand-in for the SIMD loads, which exist on x86-64 only.
+pub trait Words {}
+#[cfg(not(target_arch = "x86_64"))]
+impl Words for f32 {}
+#[cfg(not(target_arch = "x86_64"))]
+impl Words for f64 {}
+
+/// Values a checksum reads (as float64).
+pub trait Value: Copy + Send + Sync + Words {
     fn as_f64(self) -> f64;
-    /// True when the type's in-memory bytes are those of a float64 in little-endian order.
-    const IS_LE_F64: bool;
+    /// The canonical word: the bits of the float64 value.
+    #[inline(always)]
+    fn bits(self) -> u64 {
+        self.as_f64().to_bits()
+    }
 }
 
 impl Value for f64 {
+    #[inline(always)]
     fn as_f64(self) -> f64 {
         self
     }
-    const IS_LE_F64: bool = cfg!(target_endian = "little");
 }
 
 impl Value for f32 {
+    #[inline(always)]
     fn as_f64(self) -> f64 {
         f64::from(self)
     }
-    const IS_LE_F64: bool = false;
 }
 
-/// Streaming digest of rows fed in instance order, chunk after chunk.
+/// The lane sums of (part of) one block, modulo 2^64 (see the module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Sums {
+    pub a: [u64; LANES],
+    pub h: [u64; LANES],
+    pub b: [u64; LANES],
+    pub g: [u64; LANES],
+}
+
+impl Sums {
+    /// Adds `other`'s sums (of other words of the same block).
+    pub fn add(&mut self, other: &Sums) {
+        for l in 0..LANES {
+            self.a[l] = self.a[l].wrapping_add(other.a[l]);
+            self.h[l] = self.h[l].wrapping_add(other.h[l]);
+            self.b[l] = self.b[l].wrapping_add(other.b[l]);
+            self.g[l] = self.g[l].wrapping_add(other.g[l]);
+        }
+    }
+}
+
+/// The definition, word by word: adds to `s` the words of `values`, the
+/// first being word `k0` of its block.
+pub fn literal<T: Value>(values: &[T], k0: u64, s: &mut Sums) {
+    for (i, v) in values.iter().enumerate() {
+        let k = k0 + i as u64;
+        let (l, j, w) = ((k % LANES as u64) as usize, k / LANES as u64, v.bits());
+        s.a[l] = s.a[l].wrapping_add(w);
+        s.h[l] = s.h[l].wrapping_add(w >> 32);
+        s.b[l] = s.b[l].wrapping_add(j.wrapping_mul(w));
+        s.g[l] = s.g[l].wrapping_add(j.wrapping_mul(w >> 32));
+    }
+}
+
+/// [`literal`] at instruction-set level `isa` (the same sums at every level;
+/// a level the CPU does not run falls back to the definition).
+pub fn sum_with<T: Value>(isa: Isa, values: &[T], k0: u64, s: &mut Sums) {
+    let head = (((LANES as u64 - k0 % LANES as u64) % LANES as u64) as usize).min(values.len());
+    let m = (values.len() - head) / LANES;
+    let groups = &values[head..head + m * LANES];
+    #[cfg(target_arch = "x86_64")]
+    let lanes = match isa {
+        // SAFETY: the CPU runs the level (checked by `supported`).
+        Isa::Avx512 if m > 0 && isa.supported() => Some(unsafe { T::groups_avx512(groups) }),
+        Isa::Avx2 if m > 0 && isa.supported() => Some(unsafe { T::groups_avx2(groups) }),
+        _ => None,
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let lanes: Option<[[u64; LANES]; 4]> = {
+        let _ = isa;
+        None
+    };
+    let Some([s1, h1, s2, h2]) = lanes else {
+        return literal(values, k0, s);
+    };
+    literal(&values[..head], k0, s);
+    // Over steps j0 .. j0 + m: s1 = sum x_t, s2 = sum (m - t) x_t, so
+    // sum (j0 + t) x_t = (j0 + m) s1 - s2 (all modulo 2^64).
+    let end = (k0 + head as u64) / LANES as u64 + m as u64;
+    for l in 0..LANES {
+        s.a[l] = s.a[l].wrapping_add(s1[l]);
+        s.h[l] = s.h[l].wrapping_add(h1[l]);
+        s.b[l] = s.b[l].wrapping_add(end.wrapping_mul(s1[l]).wrapping_sub(s2[l]));
+        s.g[l] = s.g[l].wrapping_add(end.wrapping_mul(h1[l]).wrapping_sub(h2[l]));
+    }
+    literal(&values[head + m * LANES..], k0 + (head + m * LANES) as u64, s);
+}
+
+/// The sums of some consecutive rows, split at the block boundary they may
+/// cross: `first` for the block of their first row, `second` for the next.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Part {
+    pub first: Sums,
+    pub second: Sums,
+}
+
+/// Values converted per batch when rows are not one run of memory.
+const BATCH_VALUES: usize = 1 << 14;
+
+/// The sums of the rows of `m`, the first being instance `first_row`, at
+/// instruction-set level `isa`; `buf` is scratch for rows that are not one
+/// run of memory (Fortran order, strided), converted batch by batch.
+pub fn part_with<T: Value>(isa: Isa, m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<f64>) -> Part {
+    let in_block = (first_row % BLOCK_ROWS as u64) as usize;
+    let split = m.rows().min(BLOCK_ROWS - in_block);
+    let mut p = Part::default();
+    rows_sums(isa, m.slice_rows(0, split), in_block, buf, &mut p.first);
+    rows_sums(isa, m.slice_rows(split, m.rows()), 0, buf, &mut p.second);
+    p
+}
+
+/// [`part_with`] at the fastest level of this CPU.
+pub fn part<T: Value>(m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<f64>) -> Part {
+    part_with(Isa::detect(), m, first_row, buf)
+}
+
+/// Bytes of input summed right after the kernel has read them: a few
+/// kilobytes, so they are still in L1 and the kernel's prefetches of the
+/// next rows stay in flight meanwhile (the sums' additions then hide under
+/// the memory stream instead of adding to it).
+const INTERLEAVE_BYTES: usize = 16 << 10;
+
+/// [`part`] of the rows of `m`, computed a few kilobytes at a time, each
+/// right after `kernel(r0, r1)` has been called on rows `r0..r1` of `m`
+/// (every row once, in order).
+pub fn part_after<T: Value>(
+    m: Matrix<'_, T>,
+    first_row: u64,
+    buf: &mut Vec<f64>,
+    mut kernel: impl FnMut(usize, usize),
+) -> Part {
+    let isa = Isa::detect();
+    let row_bytes = (m.cols() * std::mem::size_of::<T>()).max(1);
+    let step = (INTERLEAVE_BYTES / row_bytes).clamp(16, PIECE_ROWS);
+    let block = |row: u64| row / BLOCK_ROWS as u64;
+    let mut p = Part::default();
+    let mut r = 0;
+    while r < m.rows() {
+        let e = (r + step).min(m.rows());
+        kernel(r, e);
+        let q = part_with(isa, m.slice_rows(r, e), first_row + r as u64, buf);
+        if block(first_row + r as u64) == block(first_row) {
+            p.first.add(&q.first);
+            p.second.add(&q.second);
+        } else {
+            p.second.add(&q.first); // (q.second is empty: rows span fewer than BLOCK_ROWS)
+        }
+        r = e;
+    }
+    p
+}
+
+/// Adds the sums of rows `m` (row `row` of their block onwards) to `s`.
+fn rows_sums<T: Value>(isa: Isa, m: Matrix<'_, T>, row: usize, buf: &mut Vec<f64>, s: &mut Sums) {
+    let (rows, cols) = (m.rows(), m.cols());
+    if let Some(values) = m.contiguous() {
+        return sum_with(isa, values, (row * cols) as u64, s);
+    }
+    let batch = (BATCH_VALUES / cols.max(1)).max(1);
+    let mut first = 0;
+    while first < rows {
+        let last = (first + batch).min(rows);
+        buf.clear();
+        for i in first..last {
+            match m.row_slice(i) {
+                Some(r) => buf.extend(r.iter().map(|&v| v.as_f64())),
+                None => buf.extend((0..cols).map(|j| m.get(i, j).as_f64())),
+            }
+        }
+        sum_with(isa, buf, ((row + first) * cols) as u64, s);
+        first = last;
+    }
+}
+
+/// MurmurHash3's 64-bit finaliser: a bijection of u64 that spreads every bit.
+fn fmix64(mut x: u64) -> u64 {
+    x ^= x >> 33;
+    x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
+    x ^= x >> 33;
+    x = x.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+    x ^ (x >> 33)
+}
+
+/// The 128-bit checksum of a block of `rows` rows of `cols` columns whose
+/// sums are `s`: two chains `h = fmix64(h ^ word)` over the words
+/// `(tag, cols, rows, A, H, B, G)`, forward and backward, each a bijection
+/// of `h` at every step, so any one changed word changes both halves.
+pub fn finish(cols: usize, rows: usize, s: &Sums) -> u128 {
+    const TAG: u64 = u64::from_le_bytes(*b"fl64x8/1");
+    let mut words = vec![TAG, cols as u64, rows as u64];
+    for lanes in [&s.a, &s.h, &s.b, &s.g] {
+        words.extend_from_slice(lanes);
+    }
+    let forward = words.iter().fold(0x6564_6d66_5f72_7331u64, |h, &w| fmix64(h ^ w));
+    let backward = words
+        .iter()
+        .rev()
+        .fold(0x9e37_79b9_7f4a_7c15u64, |h, &w| fmix64(h ^ w));
+    (u128::from(forward) << 64) | u128::from(backward)
+}
+
+/// Streaming checksums of rows fed in instance order, chunk after chunk.
 #[derive(Debug, Default, Clone)]
 pub struct RowDigest {
     cols: Option<usize>,
     n_rows: u64,
-    /// Leaf digests of the block being filled.
-    leaves: Vec<u64>,
-    /// Bytes of the leaf being filled (fewer than LEAF_ROWS rows).
-    pending: Vec<u8>,
-    pending_rows: usize,
-    /// Digests of the completed blocks, in order.
+    /// Sums of the block being filled.
+    open: Sums,
+    /// Checksums of the completed blocks, in order.
     blocks: Vec<u128>,
+}
+
+/// The sums of a chunk being fed, per block from the digest's open block on;
+/// taken by [`RowDigest::commit`] once the whole chunk is summed.
+#[derive(Debug, Clone)]
+pub struct Pending {
+    first_row: u64,
+    rows: usize,
+    sums: Vec<Sums>,
+}
+
+impl Pending {
+    /// Instance index of the chunk's first row.
+    pub fn first_row(&self) -> u64 {
+        self.first_row
+    }
+
+    /// Adds `part`, the sums of the rows starting at row `chunk_row` of the chunk.
+    pub fn add(&mut self, chunk_row: usize, part: &Part) {
+        let block = |row: u64| (row / BLOCK_ROWS as u64) as usize;
+        let k = block(self.first_row + chunk_row as u64) - block(self.first_row);
+        self.sums[k].add(&part.first);
+        self.sums[k + 1].add(&part.second); // `begin` leaves room for it
+    }
 }
 
 impl RowDigest {
@@ -75,40 +327,15 @@ impl RowDigest {
         self.cols
     }
 
-    /// Digests of the blocks completed so far (block k: instances k*BLOCK_ROWS..).
+    /// Checksums of the blocks completed so far (block k: instances k*BLOCK_ROWS..).
     pub fn blocks(&self) -> &[u128] {
         &self.blocks
     }
 
-    /// Digest of the rows after the last complete block, None when there are none.
+    /// Checksum of the rows after the last complete block, None when there are none.
     pub fn partial(&self) -> Option<u128> {
         let rows = (self.n_rows % BLOCK_ROWS as u64) as usize;
-        if rows == 0 {
-            return None;
-        }
-        let mut leaves = self.leaves.clone();
-        if self.pending_rows > 0 {
-            leaves.push(xxh3_64(&self.pending));
-        }
-        Some(block_digest(self.cols.unwrap_or(0), rows, &leaves))
-    }
-
-    /// Feeds the next rows (any strides, float64 or float32).
-    pub fn update<T: Value>(&mut self, m: Matrix<'_, T>, pool: &ThreadPool) -> Result<()> {
-        self.check_width(m.cols())?;
-        let (head, whole) = self.leaves_in(m.rows());
-        // Whole leaves inside this chunk, in parallel.
-        let digests: Vec<u64> = pool.install(|| {
-            (0..whole)
-                .into_par_iter()
-                .map_init(Vec::new, |buf, l| {
-                    let s = head + l * LEAF_ROWS;
-                    leaf_digest(m.slice_rows(s, s + LEAF_ROWS), buf)
-                })
-                .collect()
-        });
-        self.absorb(m, &digests);
-        Ok(())
+        (rows > 0).then(|| finish(self.cols.unwrap_or(0), rows, &self.open))
     }
 
     /// An error unless chunks of `cols` columns may follow those fed so far.
@@ -122,219 +349,85 @@ impl RowDigest {
         }
     }
 
-    /// Where the whole leaves of the next `rows` rows lie: `(head, whole)`,
-    /// leaf `l` being rows `head + l * LEAF_ROWS ..` of them (the first
-    /// `head` rows complete the leaf the previous chunk left open).
-    pub fn leaves_in(&self, rows: usize) -> (usize, usize) {
-        let head = if self.pending_rows > 0 {
-            (LEAF_ROWS - self.pending_rows).min(rows)
-        } else {
-            0
-        };
-        (head, (rows - head) / LEAF_ROWS)
+    /// Room for the sums of a chunk of `rows` rows fed next.
+    pub fn begin(&self, rows: usize) -> Result<Pending> {
+        // Blocks the chunk touches, plus one a piece's `second` may name (zero then).
+        let n = (self.n_rows % BLOCK_ROWS as u64) as usize + rows;
+        let mut sums = Vec::new();
+        sums.try_reserve(n / BLOCK_ROWS + 2)
+            .map_err(|_| EdmfError::OutOfMemory {
+                what: "block checksums",
+                elements: n / BLOCK_ROWS + 2,
+            })?;
+        sums.resize(n / BLOCK_ROWS + 2, Sums::default());
+        Ok(Pending {
+            first_row: self.n_rows,
+            rows,
+            sums,
+        })
     }
 
-    /// Feeds the next rows whose whole leaves the caller has already hashed
-    /// with [`leaf_digest`] (e.g. while the rows were in cache for another
-    /// pass): `leaves[l]` is the digest of leaf `l` as placed by
-    /// [`leaves_in`](Self::leaves_in). Same result as [`update`](Self::update).
-    pub fn update_hashed<T: Value>(&mut self, m: Matrix<'_, T>, leaves: &[u64]) -> Result<()> {
+    /// Feeds the next rows (any strides, float64 or float32), summed in
+    /// [`PIECE_ROWS`]-row pieces in parallel.
+    pub fn update<T: Value>(&mut self, m: Matrix<'_, T>, pool: &ThreadPool) -> Result<()> {
         self.check_width(m.cols())?;
-        let whole = self.leaves_in(m.rows()).1;
-        if leaves.len() != whole {
+        let mut pending = self.begin(m.rows())?;
+        let first = self.n_rows;
+        let parts: Vec<Part> = pool.install(|| {
+            (0..m.rows().div_ceil(PIECE_ROWS))
+                .into_par_iter()
+                .map_init(Vec::new, |buf, p| {
+                    let s = p * PIECE_ROWS;
+                    part(
+                        m.slice_rows(s, (s + PIECE_ROWS).min(m.rows())),
+                        first + s as u64,
+                        buf,
+                    )
+                })
+                .collect()
+        });
+        for (p, sums) in parts.iter().enumerate() {
+            pending.add(p * PIECE_ROWS, sums);
+        }
+        self.commit(m.cols(), pending)
+    }
+
+    /// Takes in a chunk of `cols` columns whose rows were summed, every one
+    /// once, into `pending` (from [`begin`](Self::begin), e.g. by the
+    /// falsifier while it had the rows in cache). Same result as
+    /// [`update`](Self::update).
+    pub fn commit(&mut self, cols: usize, pending: Pending) -> Result<()> {
+        self.check_width(cols)?;
+        if pending.first_row != self.n_rows {
             return Err(EdmfError::invalid(
-                "leaves",
-                format!("{whole} leaf digests for {} rows, got {}", m.rows(), leaves.len()),
+                "pending",
+                format!(
+                    "sums from row {} fed after row {}",
+                    pending.first_row, self.n_rows
+                ),
             ));
         }
-        self.absorb(m, leaves);
+        if pending.rows == 0 {
+            return Ok(());
+        }
+        self.cols = Some(cols);
+        let mut row = self.n_rows;
+        let end = self.n_rows + pending.rows as u64;
+        for sums in &pending.sums {
+            self.open.add(sums);
+            let block_end = (row / BLOCK_ROWS as u64 + 1) * BLOCK_ROWS as u64;
+            if block_end > end {
+                break;
+            }
+            self.blocks.push(finish(cols, BLOCK_ROWS, &self.open));
+            self.open = Sums::default();
+            row = block_end;
+        }
+        self.n_rows = end;
         Ok(())
-    }
-
-    /// Takes in rows of a checked width, given the digests of their whole leaves.
-    fn absorb<T: Value>(&mut self, m: Matrix<'_, T>, leaves: &[u64]) {
-        let rows = m.rows();
-        if rows == 0 {
-            return;
-        }
-        self.cols = Some(m.cols());
-        let (head, whole) = self.leaves_in(rows);
-        // Complete the leaf the previous chunk left open.
-        if head > 0 {
-            append_rows(&mut self.pending, m.slice_rows(0, head));
-            self.pending_rows += head;
-            if self.pending_rows == LEAF_ROWS {
-                let d = xxh3_64(&self.pending);
-                self.pending.clear();
-                self.pending_rows = 0;
-                self.push_leaf(d);
-            }
-        }
-        for &d in &leaves[..whole] {
-            self.push_leaf(d);
-        }
-        // The rest opens a new leaf.
-        let i = head + whole * LEAF_ROWS;
-        if i < rows {
-            append_rows(&mut self.pending, m.slice_rows(i, rows));
-            self.pending_rows += rows - i;
-        }
-        self.n_rows += rows as u64;
-    }
-
-    fn push_leaf(&mut self, digest: u64) {
-        self.leaves.push(digest);
-        if self.leaves.len() * LEAF_ROWS == BLOCK_ROWS {
-            let d = block_digest(self.cols.unwrap_or(0), BLOCK_ROWS, &self.leaves);
-            self.blocks.push(d);
-            self.leaves.clear();
-        }
-    }
-}
-
-fn block_digest(cols: usize, rows: usize, leaves: &[u64]) -> u128 {
-    let mut bytes = Vec::with_capacity(16 + 8 * leaves.len());
-    bytes.extend_from_slice(&(cols as u64).to_le_bytes());
-    bytes.extend_from_slice(&(rows as u64).to_le_bytes());
-    for d in leaves {
-        bytes.extend_from_slice(&d.to_le_bytes());
-    }
-    xxh3_128(&bytes)
-}
-
-/// xxh3-64 of a whole leaf ([`LEAF_ROWS`] rows); hashed in place when it is
-/// contiguous float64 (the common case: no copy), else converted once into
-/// `buf` (float32 -> float64 is a single vectorised loop) and hashed there.
-pub fn leaf_digest<T: Value>(m: Matrix<'_, T>, buf: &mut Vec<f64>) -> u64 {
-    if T::IS_LE_F64 {
-        if let Some(values) = m.contiguous() {
-            return xxh3_64(as_bytes(values));
-        }
-    }
-    if cfg!(target_endian = "big") {
-        let mut bytes = Vec::new();
-        append_rows(&mut bytes, m);
-        return xxh3_64(&bytes);
-    }
-    buf.clear();
-    match m.contiguous() {
-        Some(values) => buf.extend(values.iter().map(|&v| v.as_f64())),
-        None => {
-            buf.reserve(m.rows() * m.cols());
-            for i in 0..m.rows() {
-                match m.row_slice(i) {
-                    Some(row) => buf.extend(row.iter().map(|&v| v.as_f64())),
-                    None => buf.extend((0..m.cols()).map(|j| m.get(i, j).as_f64())),
-                }
-            }
-        }
-    }
-    xxh3_64(as_bytes(buf))
-}
-
-/// The memory of `values`, which holds float64 in little-endian order
-/// (callers check `T::IS_LE_F64`).
-fn as_bytes<T: Value>(values: &[T]) -> &[u8] {
-    // SAFETY: any initialised memory may be read as u8 (no alignment or
-    // validity requirement), over exactly the slice's size.
-    unsafe { std::slice::from_raw_parts(values.as_ptr() as *const u8, std::mem::size_of_val(values)) }
-}
-
-/// Appends the rows' values as little-endian float64 bytes, row-major.
-fn append_rows<T: Value>(out: &mut Vec<u8>, m: Matrix<'_, T>) {
-    let (rows, cols) = (m.rows(), m.cols());
-    let mut row_buf: Vec<f64> = Vec::with_capacity(cols);
-    out.reserve(rows * cols * 8);
-    for i in 0..rows {
-        row_buf.clear();
-        match m.row_slice(i) {
-            // A plain conversion loop the compiler vectorises (float32 -> float64).
-            Some(row) => row_buf.extend(row.iter().map(|&v| v.as_f64())),
-            None => row_buf.extend((0..cols).map(|j| m.get(i, j).as_f64())),
-        }
-        if cfg!(target_endian = "little") {
-            out.extend_from_slice(as_bytes(&row_buf));
-        } else {
-            for v in &row_buf {
-                out.extend_from_slice(&v.to_le_bytes());
-            }
-        }
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn pool() -> ThreadPool {
-        rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap()
-    }
-
-    fn digest_in_chunks(data: &[f64], cols: usize, step: usize) -> (Vec<u128>, Option<u128>) {
-        let rows = data.len() / cols;
-        let all = Matrix::row_major(data, rows, cols).unwrap();
-        let mut d = RowDigest::new();
-        let p = pool();
-        let mut s = 0;
-        while s < rows {
-            let e = (s + step).min(rows);
-            d.update(all.slice_rows(s, e), &p).unwrap();
-            s = e;
-        }
-        assert_eq!(d.n_rows(), rows as u64);
-        (d.blocks().to_vec(), d.partial())
-    }
-
-    #[test]
-    fn the_digest_does_not_depend_on_chunking() {
-        let cols = 3;
-        let rows = 2 * BLOCK_ROWS + 777;
-        let data: Vec<f64> = (0..rows * cols).map(|k| (k as f64).sin()).collect();
-        let want = digest_in_chunks(&data, cols, rows);
-        assert_eq!(want.0.len(), 2);
-        assert!(want.1.is_some());
-        for step in [1, 999, LEAF_ROWS, LEAF_ROWS + 1, BLOCK_ROWS - 3] {
-            assert_eq!(digest_in_chunks(&data, cols, step), want, "step {step}");
-        }
-    }
-
-    #[test]
-    fn layout_and_float32_give_the_digest_of_the_values() {
-        let (rows, cols) = (LEAF_ROWS + 5, 4);
-        let c: Vec<f32> = (0..rows * cols).map(|k| k as f32 * 0.25).collect();
-        let mut f = vec![0.0f64; rows * cols]; // same values, Fortran order, float64
-        for i in 0..rows {
-            for j in 0..cols {
-                f[j * rows + i] = f64::from(c[i * cols + j]);
-            }
-        }
-        let p = pool();
-        let mut a = RowDigest::new();
-        a.update(Matrix::row_major(&c, rows, cols).unwrap(), &p).unwrap();
-        let mut b = RowDigest::new();
-        b.update(Matrix::col_major(&f, rows, cols).unwrap(), &p).unwrap();
-        assert_eq!(a.partial(), b.partial());
-    }
-
-    #[test]
-    fn one_changed_value_changes_its_block_only() {
-        let cols = 2;
-        let rows = 3 * BLOCK_ROWS;
-        let mut data: Vec<f64> = (0..rows * cols).map(|k| k as f64).collect();
-        let (before, _) = digest_in_chunks(&data, cols, 5000);
-        data[(BLOCK_ROWS + 12345) * cols + 1] += 0.5; // (1e-12 would be below one ulp of these values)
-        let (after, _) = digest_in_chunks(&data, cols, 5000);
-        assert_eq!(before[0], after[0]);
-        assert_ne!(before[1], after[1]);
-        assert_eq!(before[2], after[2]);
-    }
-
-    #[test]
-    fn a_change_of_width_is_an_error() {
-        let data = [0.0f64; 12];
-        let p = pool();
-        let mut d = RowDigest::new();
-        d.update(Matrix::row_major(&data, 4, 3).unwrap(), &p).unwrap();
-        assert!(d.update(Matrix::row_major(&data, 3, 4).unwrap(), &p).is_err());
-    }
-}
+#[path = "digest_tests.rs"]
+mod tests;

@@ -6,12 +6,12 @@
 //! caller's `stop` check runs between slabs on the calling thread, which is how
 //! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
 //!
-//! A checkpointed run also needs the content digest of every row (see
-//! [`crate::digest`]); `update_digested` hashes each 1024-row leaf in the task
-//! that has just screened the matching kernel block, while the rows are still
-//! in that core's cache, instead of reading the whole chunk from memory again.
+//! A checkpointed run also needs the checksum of every row (see
+//! [`crate::digest`]); `update_digested` sums each kernel block's rows in the
+//! task that has just screened them, while they are still in that core's
+//! cache, instead of reading the whole chunk from memory again.
 
-use crate::digest::{leaf_digest, RowDigest, Value, LEAF_ROWS};
+use crate::digest::{self, Part, Pending, RowDigest, Value, PIECE_ROWS};
 use crate::error::{EdmfError, Result};
 use crate::kernel::{diagnose, screen, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -27,8 +27,8 @@ const SLAB_ELEMENTS: usize = 1 << 22;
 /// Rows diagnosed to learn the screening order: enough to rank the sensors,
 /// few enough that the slower full visit costs nothing measurable.
 const LEARN_ROWS: usize = 16 * BLOCK_ROWS;
-// Kernel block k of a chunk hashes digest leaf k (the leaf starting in it).
-const _: () = assert!(BLOCK_ROWS == LEAF_ROWS);
+// Kernel block k of a chunk is the digest's piece k (same rows).
+const _: () = assert!(BLOCK_ROWS == PIECE_ROWS);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
@@ -54,29 +54,8 @@ pub struct Falsifier {
     scratch: Vec<u32>,
     /// Candidates found by each block of the current slab.
     block_counts: Vec<usize>,
-    /// Digest of the leaf starting in each block of the current slab.
-    block_leaves: Vec<u64>,
-    /// Digests of the whole leaves of the current chunk (`update_digested`).
-    chunk_leaves: Vec<u64>,
-}
-
-/// Where a chunk's digest leaves lie (see `RowDigest::leaves_in`): leaf `l`
-/// is rows `head + l * LEAF_ROWS ..` of `chunk`, for `l < whole`.
-#[derive(Clone, Copy)]
-struct Leaves<'a, T> {
-    chunk: Matrix<'a, T>,
-    head: usize,
-    whole: usize,
-}
-
-impl<T: Value> Leaves<'_, T> {
-    /// Hashes leaf `l` into `out` if it is a whole leaf of the chunk.
-    fn hash(&self, l: usize, out: &mut u64, buf: &mut Vec<f64>) {
-        if l < self.whole {
-            let s = self.head + l * LEAF_ROWS;
-            *out = leaf_digest(self.chunk.slice_rows(s, s + LEAF_ROWS), buf);
-        }
-    }
+    /// Checksum sums of each block of the current slab (`update_digested`).
+    block_parts: Vec<Part>,
 }
 
 impl Falsifier {
@@ -111,8 +90,7 @@ impl Falsifier {
             violations: Vec::new(),
             scratch: Vec::new(),
             block_counts: Vec::new(),
-            block_leaves: Vec::new(),
-            chunk_leaves: Vec::new(),
+            block_parts: Vec::new(),
         })
     }
 
@@ -194,24 +172,20 @@ impl Falsifier {
                 ),
             ));
         }
-        let leaves = match &digest {
+        let mut pending = match &digest {
             Some(d) => {
                 d.check_width(chunk.cols())?; // before any work: a chunk is taken whole or not at all
-                let (head, whole) = d.leaves_in(chunk.rows());
-                self.chunk_leaves.clear();
-                reserve(&mut self.chunk_leaves, whole, "leaf digests")?;
-                self.chunk_leaves.resize(whole, 0);
-                Some(Leaves { chunk, head, whole })
+                Some(d.begin(chunk.rows())?)
             }
             None => None,
         };
         let (kept_candidates, kept_violations) = (self.candidates.len(), self.violations.len());
-        match self.falsify_slabs(chunk, pool, stop, leaves) {
+        match self.falsify_slabs(chunk, pool, stop, pending.as_mut()) {
             Ok(chunk_tally) => {
                 self.tally.add(&chunk_tally);
                 self.n_instances += chunk.rows() as u64;
-                if let Some(d) = digest {
-                    d.update_hashed(chunk, &self.chunk_leaves)?; // width checked above: cannot fail
+                if let (Some(d), Some(p)) = (digest, pending) {
+                    d.commit(chunk.cols(), p)?; // width checked above: cannot fail
                 }
                 Ok(())
             }
@@ -231,7 +205,7 @@ impl Falsifier {
         chunk: Matrix<'_, T>,
         pool: &ThreadPool,
         stop: &mut dyn FnMut() -> bool,
-        leaves: Option<Leaves<'_, T>>,
+        mut pending: Option<&mut Pending>,
     ) -> Result<Tally> {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
         let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1) * BLOCK_ROWS;
@@ -254,13 +228,12 @@ impl Falsifier {
             let out = &mut self.scratch[..last - first];
             let n_blocks = out.len().div_ceil(BLOCK_ROWS);
             self.block_counts.resize(n_blocks, 0);
-            self.block_leaves.resize(n_blocks, 0);
+            self.block_parts.resize(n_blocks, Part::default());
             let counts = &mut self.block_counts[..];
-            // Slabs start on block boundaries: block k of this slab is block first_block + k of the chunk.
-            let first_block = first / BLOCK_ROWS;
-            let hashing = (
-                leaves.map(|l| (l, first_block)),
-                &mut self.block_leaves[..n_blocks],
+            // Slabs start on block boundaries: block k of this slab is rows first + k * BLOCK_ROWS ..
+            let summing = (
+                pending.as_ref().map(|p| p.first_row() + first as u64),
+                &mut self.block_parts[..n_blocks],
             );
             let base = self.n_instances + first as u64;
             let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
@@ -269,17 +242,17 @@ impl Falsifier {
             let tally = pool.install(|| {
                 let tally = match (self.mode, plan) {
                     (Mode::Screen, Some(plan)) => {
-                        screen_parallel(slab, bounds, plan, out, counts, hashing);
+                        screen_parallel(slab, bounds, plan, out, counts, summing);
                         None
                     }
-                    _ => Some(diagnose_parallel(slab, bounds, out, counts, hashing)),
+                    _ => Some(diagnose_parallel(slab, bounds, out, counts, summing)),
                 };
                 collect_candidates(out, counts, base, candidates).map(|()| tally)
             })?;
-            if let Some(l) = leaves {
-                // The leaves that start in this slab's blocks, into their place in the chunk.
-                let (from, to) = (first_block.min(l.whole), (first_block + n_blocks).min(l.whole));
-                self.chunk_leaves[from..to].copy_from_slice(&self.block_leaves[..to - from]);
+            if let Some(p) = pending.as_deref_mut() {
+                for (k, part) in self.block_parts[..n_blocks].iter().enumerate() {
+                    p.add(first + k * BLOCK_ROWS, part);
+                }
             }
             match (self.mode, tally) {
                 (Mode::Diagnose, Some(t)) => {
@@ -362,21 +335,21 @@ fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
         .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
-/// When hashing: the chunk's leaves and the slab's first block in the chunk;
-/// and one digest slot per block of the slab (left alone when not hashing).
-type Hashing<'a, 'b, T> = (Option<(Leaves<'a, T>, usize)>, &'b mut [u64]);
+/// When summing: the instance index of the slab's first row; and one slot
+/// per block of the slab for its checksum sums (left alone when not summing).
+type Summing<'b> = (Option<u64>, &'b mut [Part]);
 
 /// Runs in the caller's pool; each block's candidate count into `counts`,
-/// and, when hashing, the digest of the leaf starting in it into its slot.
+/// and, when summing, the checksum sums of its rows into its slot.
 fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],
     counts: &mut [usize],
-    hashing: Hashing<'_, '_, T>,
+    summing: Summing<'_>,
 ) -> Tally {
     let n_m = b.len();
-    let (leaves, slots) = hashing;
+    let (sum_from, slots) = summing;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
         .zip(slots.par_iter_mut())
@@ -385,11 +358,17 @@ fn diagnose_parallel<T: Prediction + Value>(
             || (Tally::zeros(n_m), Vec::new()),
             |(mut t, mut buf), (k, ((o, count), slot))| {
                 let first = k * BLOCK_ROWS;
-                diagnose(m.slice_rows(first, first + o.len()), b, o, &mut t);
-                *count = candidates_in(o);
-                if let Some((l, first_block)) = &leaves {
-                    l.hash(first_block + k, slot, &mut buf); // rows just read: in this core's cache
+                let rows = m.slice_rows(first, first + o.len());
+                match sum_from {
+                    // Each few kilobytes summed right after the kernel read them (in L1).
+                    Some(base) => {
+                        *slot = digest::part_after(rows, base + first as u64, &mut buf, |r0, r1| {
+                            diagnose(rows.slice_rows(r0, r1), b, &mut o[r0..r1], &mut t)
+                        })
+                    }
+                    None => diagnose(rows, b, o, &mut t),
                 }
+                *count = candidates_in(o);
                 (t, buf)
             },
         )
@@ -398,27 +377,33 @@ fn diagnose_parallel<T: Prediction + Value>(
 }
 
 /// Runs in the caller's pool; each block's candidate count into `counts`,
-/// and, when hashing, the digest of the leaf starting in it into its slot.
+/// and, when summing, the checksum sums of its rows into its slot.
 fn screen_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     plan: &ScreenPlan,
     out: &mut [u32],
     counts: &mut [usize],
-    hashing: Hashing<'_, '_, T>,
+    summing: Summing<'_>,
 ) {
-    let (leaves, slots) = hashing;
+    let (sum_from, slots) = summing;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
         .zip(slots.par_iter_mut())
         .enumerate()
         .for_each_init(Vec::new, |buf, (k, ((o, count), slot))| {
             let first = k * BLOCK_ROWS;
-            screen(m.slice_rows(first, first + o.len()), b, plan, o);
-            *count = candidates_in(o);
-            if let Some((l, first_block)) = &leaves {
-                l.hash(first_block + k, slot, buf); // rows just read: in this core's cache
+            let rows = m.slice_rows(first, first + o.len());
+            match sum_from {
+                // Each few kilobytes summed right after the kernel read them (in L1).
+                Some(base) => {
+                    *slot = digest::part_after(rows, base + first as u64, buf, |r0, r1| {
+                        screen(rows.slice_rows(r0, r1), b, plan, &mut o[r0..r1])
+                    })
+                }
+                None => screen(rows, b, plan, o),
             }
+            *count = candidates_in(o);
         })
 }
 

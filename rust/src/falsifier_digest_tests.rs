@@ -2,7 +2,7 @@
 //! (`update_digested`) is the one a separate `RowDigest` pass gives, whatever
 //! the chunking, thread count, mode, dtype or layout.
 
-use crate::digest::{RowDigest, BLOCK_ROWS, LEAF_ROWS};
+use crate::digest::{RowDigest, BLOCK_ROWS, PIECE_ROWS as LEAF_ROWS};
 use crate::falsifier::{Falsifier, Mode};
 use crate::matrix::Matrix;
 use crate::testing::uniform;
@@ -19,7 +19,7 @@ fn falsifier(n_m: usize, mode: Mode) -> Falsifier {
     Falsifier::new(&vec![0.0; n_m], &thr, mode, mode == Mode::Diagnose).unwrap()
 }
 
-/// Random chunk lengths (some short, some longer than a leaf or a slab).
+/// Random chunk lengths (some short, some longer than a piece or a slab).
 fn chunking(rows: usize, state: &mut u64) -> Vec<usize> {
     let mut cuts = Vec::new();
     let mut left = rows;

@@ -113,9 +113,9 @@ def test_hand_edited_tallies_are_refused(tmp_path):
 
 @pytest.mark.parametrize("text, why", [
     ("[" * 100_000 + "]" * 100_000, "RecursionError"),
-    ('{"format": "edmf_rs.checkpoint/2", "n_done": 1' + "0" * 400 + "}", ""),
-    ('{"format": "edmf_rs.checkpoint/2", "n_done": 1e400}', ""),
-    ('{"format": "edmf_rs.checkpoint/2", "n_done": NaN}', "NaN"),
+    ('{"format": "%s", "n_done": 1' % state_file.FORMAT + "0" * 400 + "}", ""),
+    ('{"format": "%s", "n_done": 1e400}' % state_file.FORMAT, ""),
+    ('{"format": "%s", "n_done": NaN}' % state_file.FORMAT, "NaN"),
     (b"\xff\xfe{}", ""),
 ])
 def test_a_damaged_state_is_a_clean_error_naming_the_file(tmp_path, text, why):

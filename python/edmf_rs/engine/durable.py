@@ -13,9 +13,10 @@ interface, whichever kind it is:
   chunk done, saves when due, on errors and at the end, and reads the
   finished result back from the folder.
 
-The digest of the chunks a run falsifies is computed by the falsifier in the
-same pass (``acc.update(chunk, digest=run.digest(first))``: each leaf of
-rows is hashed while the kernel has it in cache); ``done`` hashes in a
+The block checksums of the chunks a run falsifies are computed by the
+falsifier in the same pass (``acc.update(chunk, digest=run.digest(first))``:
+each few kilobytes of rows are summed right after the kernel has read them,
+while they are in cache); ``done`` sums in a
 separate pass the rows that are not the falsifier's input (the parameter sets
 of ``falsify_model``). Rows re-read on resumption are checked by a separate
 ``_core.RowDigest`` pass (``skipped``): that re-read is only a verification.

@@ -58,7 +58,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         again with the same folder and inputs resumes after the last saved
         chunk (or returns the finished result); other inputs are refused,
         checked by their measurements, thresholds, options, length and a
-        content digest of every instance already done, re-read on resumption
+        checksum of every block of instances already done (a guard against
+        accidental change, not tampering), re-read on resumption
         (the error names the first block of instances that differs). A
         folder serves one run at a time: a second run on it meanwhile is
         refused.
@@ -140,7 +141,7 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
             try:
                 for chunk in chunks:  # Eq. 8, chunk after chunk, in Rust with the GIL released
                     first = run.start + int(acc.n_instances)
-                    digest = run.digest(first)  # hashed by the falsifier, leaf by leaf while in cache
+                    digest = run.digest(first)  # summed by the falsifier while the rows are in cache
                     acc.update(chunk, digest=digest)
                     if digest is None:
                         run.done(first, chunk)

@@ -1,14 +1,15 @@
 """Resumable runs: a folder holding what a long run has found so far.
 
 The folder holds ``state.json`` (the position reached, the counts so far, a
-fingerprint of the inputs, a content digest of every instance done and the
+fingerprint of the inputs, a checksum of every block of instances done and the
 sha256 of every part, itself checksummed: see :mod:`.state`), the candidates
 as ``.npy`` parts, one set per save (see :mod:`.parts`), and the ``.lock``
 file (see :mod:`.folder_lock`). Parts are written first and the state
 replaced last, each atomically, so after a crash, SIGKILL, Ctrl-C or full
 disk the folder always describes a consistent prefix of the run, and running
 the same call again continues from its end, after re-reading the instances
-done and checking every one of them against their digests.
+done and checking every one of them against their checksums (a guard against
+accidental change of the input, see ``rust/src/digest.rs``).
 """
 
 from __future__ import annotations
@@ -181,9 +182,10 @@ class Checkpoint:
                     )
         try:
             state_file.check_shape(state, self.fields)
-            if state["rows"]["block_rows"] != _core.RowDigest.block_rows:
-                raise ValueError(f"digests of {state['rows']['block_rows']}-instance blocks, "
-                                 f"this version uses {_core.RowDigest.block_rows}")
+            rows = state["rows"]
+            if (rows["block_rows"], rows.get("checksum")) != (_core.RowDigest.block_rows, _core.RowDigest.algorithm):
+                raise ValueError(f"checksums {rows.get('checksum')!r} of {rows['block_rows']}-instance blocks, "
+                                 f"this version uses {_core.RowDigest.algorithm!r} of {_core.RowDigest.block_rows}")
         except ValueError as exc:
             raise ValueError(f"checkpoint: {path} is not an edmf_rs checkpoint state ({exc}); "
                              "pass another folder, or delete this one to start over") from None
@@ -364,7 +366,8 @@ class Checkpoint:
                                   "sha256": sums})
             state = {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
                      "rereadable": self.rereadable and self.was_rereadable,
-                     "rows": {"block_rows": _core.RowDigest.block_rows, "blocks": self.rows.blocks(),
+                     "rows": {"checksum": _core.RowDigest.algorithm, "block_rows": _core.RowDigest.block_rows,
+                              "blocks": self.rows.blocks(),
                               "partial": self.rows.partial()},
                      "tally": tally, "extra": self.extra, "parts": new_parts,
                      # The next save's part files: all a crash can leave that the parts do not list.

@@ -17,7 +17,11 @@ from pathlib import Path
 from . import atomic
 
 STATE = "state.json"
-FORMAT = "edmf_rs.checkpoint/2"
+#: Version 3: rows are checked with the block checksum ``fletcher64x8/1``
+#: (see ``rust/src/digest.rs``); version 2 recorded xxh3 digests.
+FORMAT = "edmf_rs.checkpoint/3"
+#: Formats of earlier versions, refused with a message saying so.
+EARLIER = {"edmf_rs.checkpoint/2": "xxh3 digests of its rows"}
 #: Largest integer a state may hold (counts are int64 in the results).
 INT_MAX = 2**63 - 1
 #: A state this large is not one a run wrote (it holds counts and digests).
@@ -54,16 +58,30 @@ def read(path: Path) -> dict | None:
         state = json.loads(data.decode("utf-8"), parse_constant=_no_constant)
         if not isinstance(state, dict):
             raise ValueError("not a JSON object")
+        if state.get("format") in EARLIER:
+            raise _Earlier(state["format"])
         if state.get("format") != FORMAT:
             raise ValueError(f"unknown format {state.get('format')!r}")
         if state.get("checksum") != hashlib.sha256(_canonical(state)).hexdigest():
             raise ValueError("its checksum does not match its content: edited by hand or damaged")
         _check_ints(state, depth=0)
         return state
+    except _Earlier as exc:
+        fmt = exc.args[0]
+        raise ValueError(
+            f"checkpoint: {path} was written by an earlier version of edmf_rs (format {fmt!r}, with "
+            f"{EARLIER[fmt]}); this version checks the rows already done with other checksums "
+            f"(format {FORMAT!r}), so it cannot check this folder's: delete the folder or pass another "
+            "one to start over"
+        ) from None
     except OSError as exc:
         raise _damaged(path, exc.strerror or exc) from None
     except (ValueError, TypeError, AttributeError, UnicodeDecodeError, OverflowError, RecursionError) as exc:
         raise _damaged(path, f"{type(exc).__name__}: {exc}" if isinstance(exc, RecursionError) else exc) from None
+
+
+class _Earlier(ValueError):
+    """A state of an earlier format (args: the format)."""
 
 
 def _damaged(path: Path, why) -> ValueError:

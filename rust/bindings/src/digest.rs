@@ -1,5 +1,5 @@
-//! `RowDigest`: the content digest a checkpoint records of the rows a run has
-//! done (see `edmf_core::digest`), fed chunk by chunk like the `Falsifier`.
+//! `RowDigest`: the block checksums a checkpoint records of the rows a run
+//! has done (see `edmf_core::digest`), fed chunk by chunk like the `Falsifier`.
 
 use crate::{detached, pool, views::matrix_view};
 use numpy::PyReadonlyArray2;
@@ -10,7 +10,7 @@ fn hex(d: u128) -> String {
     format!("{d:032x}")
 }
 
-/// Digests of the rows fed so far, one per fixed block of instances.
+/// Checksums of the rows fed so far, one per fixed block of instances.
 #[pyclass(module = "edmf_rs._core")]
 pub struct RowDigest {
     pub(crate) inner: edmf_core::digest::RowDigest,
@@ -23,6 +23,12 @@ impl RowDigest {
         RowDigest {
             inner: edmf_core::digest::RowDigest::new(),
         }
+    }
+
+    /// Name and version of the block checksum (recorded in checkpoints).
+    #[classattr]
+    fn algorithm() -> &'static str {
+        edmf_core::digest::ALGORITHM
     }
 
     /// Instances per block (block k: instances k*block_rows ..).
