@@ -28,7 +28,6 @@ from html import escape
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..adaptive.result import AdaptiveResult
 from ..adaptive.waves import adaptive_falsify
@@ -82,6 +81,7 @@ def adaptive_sampling(table, parameters) -> AdaptiveSampling:
 def run_adaptive(project, *, progress: bool = True):
     """Runs an adaptive project: the waves, then the diagnostics on every real run."""
     from ..engine.thresholds import threshold_bounds
+    from .candidates import CandidateWriter
     from .diagnostics import SensitivityTracker, leave_one_out
     from .qoi import prognosis_of
     from .result import PlotSample
@@ -105,16 +105,17 @@ def run_adaptive(project, *, progress: bool = True):
     sample = PlotSample(result.n_runs)
     tracker(0, result.run_parameters, result.run_predictions)
     sample(0, result.run_parameters, result.run_predictions)
-    candidates = pd.DataFrame(np.hstack([falsification.candidate_parameters, falsification.candidate_predictions]),
-                              columns=[*project.parameter_names, *project.sensor_names],
-                              index=pd.Index(falsification.candidate_indices, name="instance"))
+    writer = CandidateWriter(None, project.parameter_names, project.sensor_names)  # a few hundred real runs
+    writer.add(falsification.candidate_indices, falsification.candidate_parameters,
+               falsification.candidate_predictions)
+    candidates = writer.finish()
     prognoses = ()
     if falsification.n_candidates:
         prognoses = tuple(prognosis_of(project, spec, func, falsification.candidate_parameters)
                           for spec, func in project.prognosis)
     ident = Identification(project=project, combined=combined, thresholds=thresholds, falsification=falsification,
                            leave_one_out=leave_one_out(falsification, project.sensor_names),
-                           sensitivity=tracker.finish(), candidates=candidates, prognoses=prognoses,
+                           sensitivity=tracker.finish(), candidate_set=candidates, prognoses=prognoses,
                            sample=sample.finish(falsification.candidate_mask), elapsed=time.perf_counter() - start)
     return AdaptiveIdentification(**{f: getattr(ident, f) for f in ident.__dataclass_fields__}, adaptive=result)
 
