@@ -5,7 +5,10 @@ parallel workers and records failed runs (``[model] command``, ``workers``,
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from ..simulators import CommandModel, Evaluator, FailurePolicy
+from ..simulators.evaluator import store_fingerprint
 from .schema import ProjectError
 
 
@@ -17,17 +20,32 @@ def command_model(spec, all_sensors, label: str) -> CommandModel:
         raise ProjectError(f"{label}: model.{exc}") from None
 
 
-def make_evaluator(project, out, workers) -> Evaluator | None:
-    """The simulators' evaluator (store, parallel runs, external programs), or None when not needed."""
+def sampling_key(project) -> dict:
+    """The sampling as the prediction store's fingerprint records it (with every sensor's name)."""
+    return {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
+            "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
+            "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters],
+            "sensors": [s.name for s in project.all_sensors]}
+
+
+def project_fingerprint(project) -> dict:
+    """The fingerprint of the project's prediction store (model and sampling), as `make_evaluator` keys it."""
+    m = project.model
+    return store_fingerprint(project.command, project.model_function, m.function or "", m.options,
+                             sampling_key(project))
+
+
+def make_evaluator(project, out, workers, store=None) -> Evaluator | None:
+    """The simulators' evaluator (store, parallel runs, external programs), or None when not needed;
+    with ``store`` (a store folder ``<root>/<key>``), one that reads every instance from it and
+    evaluates none."""
     m = project.model
     workers = m.workers if workers is None else workers
-    if m.predictions is not None or (out is None and project.command is None and workers == 1):
+    if store is None and (m.predictions is not None or (out is None and project.command is None and workers == 1)):
         return None
     names = [s.name for s in project.all_sensors]
-    sampling = {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
-                "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
-                "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters], "sensors": names}
     return Evaluator(project.parameter_names, names, project.sampling.n, command=project.command,
                      function=project.model_function, ref=m.function or "", path=m.path, options=m.options,
-                     workers=workers, out=out, sampling=sampling, store=m.store,
-                     policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate))
+                     workers=1 if store is not None else workers, out=out, sampling=sampling_key(project),
+                     store=m.store or store is not None, policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate),
+                     store_root=None if store is None else Path(store).parent, reuse_only=store is not None)

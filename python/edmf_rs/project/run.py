@@ -301,7 +301,8 @@ class Project:
                     seconds_per_instance=seconds)
 
     def run(self, *, progress: bool | Progress = True, max_seconds: float | None = None,
-            out: str | Path | None = None, workers: int | None = None) -> Identification:
+            out: str | Path | None = None, workers: int | None = None,
+            store: str | Path | None = None) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass.
 
         Samples the parameters (or, with ``method = "adaptive"``, runs EDMF in
@@ -325,6 +326,9 @@ class Project:
             to ``candidates.parquet`` (without ``out``: a temporary folder).
         workers : int, optional
             Parallel model runs (default: ``[model] workers``).
+        store : path, optional
+            A prediction store folder to read every instance from, evaluating
+            none (``edmf-rs falsify``; checked by `edmf_rs.project.refalsify`).
 
         Returns
         -------
@@ -358,7 +362,7 @@ class Project:
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)
-        evaluator = make_evaluator(self, out, workers)
+        evaluator = make_evaluator(self, out, workers, store)
         try:
             return self._run(start, combined, thresholds, evaluator, progress, max_seconds, out)
         finally:

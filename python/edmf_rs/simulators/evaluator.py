@@ -26,6 +26,16 @@ from .store import PredictionStore
 FLUSH_SECONDS = 1.0
 
 
+def store_fingerprint(command: CommandModel | None, function, ref: str, options: dict, sampling) -> dict:
+    """What a prediction store is keyed by: the model (the command and its templates, or the
+    function's reference, source and options) and the sampling."""
+    if command is not None:
+        model_key = command.fingerprint()
+    else:
+        model_key = {"kind": "function", "ref": ref, "source": _source_digest(function), "options": dict(options)}
+    return {"model": model_key, "sampling": sampling}
+
+
 class Evaluator:
     """Evaluates model instances batch by batch, with a prediction store.
 
@@ -49,6 +59,10 @@ class Evaluator:
         work folders in a temporary folder.
     sampling
         A description of the sampling (part of the store's key).
+    store_root
+        The store's folder (default ``out/store``), e.g. another run's store.
+    reuse_only
+        Evaluate nothing: every instance must be in the store (``edmf-rs falsify``).
 
     Examples
     --------
@@ -61,7 +75,8 @@ class Evaluator:
 
     def __init__(self, parameters, sensors, n_planned: int, *, command: CommandModel | None = None,
                  function=None, ref: str = "", path=".", options: dict | None = None, workers: int = 1,
-                 out=None, sampling: dict | None = None, store: bool = True, policy: FailurePolicy = FailurePolicy()):
+                 out=None, sampling: dict | None = None, store: bool = True, policy: FailurePolicy = FailurePolicy(),
+                 store_root=None, reuse_only: bool = False):
         self.parameters, self.sensors, self.n_planned = tuple(parameters), tuple(sensors), n_planned
         self.command, self.function, self.options = command, function, dict(options or {})
         self.workers, self.policy = workers, policy
@@ -69,14 +84,11 @@ class Evaluator:
         self.offset = self.model_evaluations = self.reused_evaluations = 0
         self.failures: list[Failure] = []
         self._first_failed = 0
-        if command is not None:
-            model_key = command.fingerprint()
-        else:
-            model_key = {"kind": "function", "ref": ref, "source": _source_digest(function),
-                         "options": self.options}
-        self.store = (PredictionStore(self.out / "store", {"model": model_key, "sampling": sampling},
+        root = Path(store_root) if store_root is not None else self.out / "store" if self.out is not None else None
+        self.store = (PredictionStore(root, store_fingerprint(command, function, ref, self.options, sampling),
                                       self.parameters, self.sensors)
-                      if self.out is not None and store else None)
+                      if root is not None and store else None)
+        self.reuse_only = reuse_only
         self._temp = None
         if command is not None:
             if self.out is not None:
@@ -93,6 +105,9 @@ class Evaluator:
         # The rows the store holds (a prefix of the batch: it holds instances 0..covered-1) are reused.
         k = min(max(self.store.covered() - first, 0), n) if self.store is not None else 0
         parts = [self._reuse(first, theta[:k])] if k else []
+        if k < n and self.reuse_only:
+            raise SimulationError(f"the prediction store {self.store.folder if self.store else None} holds no "
+                                  f"instance {first + k}; this run evaluates no model (reuse only)")
         if k < n:
             parts.append(self._evaluate(first + k, theta[k:]))
         self.offset += n

@@ -45,6 +45,11 @@ class StoredRows:
     work: list
 
 
+def store_key(fingerprint: dict) -> str:
+    """The name of a model's store folder: a hash of its fingerprint (JSON, keys sorted)."""
+    return hashlib.sha256(json.dumps(fingerprint, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
 class PredictionStore:
     """Parameters, predictions and failures of evaluated instances, in ``folder``.
 
@@ -71,7 +76,7 @@ class PredictionStore:
 
     def __init__(self, root, fingerprint: dict, parameters, sensors):
         text = json.dumps(fingerprint, sort_keys=True, default=str)
-        self.key = hashlib.sha256(text.encode()).hexdigest()[:16]
+        self.key = store_key(fingerprint)
         self.root = Path(root)
         self.folder = self.root / self.key
         self.parameters, self.sensors = tuple(parameters), tuple(sensors)
