@@ -5,6 +5,7 @@ peak memory of `edmf-rs run` does not grow with N."""
 
 import importlib.util
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -115,6 +116,20 @@ def test_a_failed_run_leaves_no_candidates_file(tmp_path):
     with pytest.raises(edmf_rs.project.errors.UserCodeError):
         Project.from_toml(path).run(progress=False, out=out)
     assert not [p for p in out.iterdir() if "candidates" in p.name]
+
+
+def test_a_killed_runs_temporary_file_is_removed_by_the_next_run(tmp_path):
+    import subprocess
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".candidates.parquet.{dead.pid}.abc.tmp"
+    stale.write_bytes(b"half a file")
+    alive = tmp_path / f".candidates.parquet.{os.getppid()}.abc.tmp"  # a running process's file stays
+    alive.write_bytes(b"in use")
+    CandidateWriter(tmp_path, ("a",), ("S",)).abort()
+    assert not stale.exists() and alive.exists()
+    assert [p.name for p in tmp_path.iterdir()] == [alive.name]
 
 
 def test_writer_refuses_nothing_and_keeps_an_empty_file_readable(tmp_path):

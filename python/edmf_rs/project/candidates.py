@@ -41,7 +41,25 @@ SAMPLE = 2000
 
 
 def sample_keys(indices: np.ndarray) -> np.ndarray:
-    """splitmix64 of each instance index: the sampling key of bottom-k sampling (uint64)."""
+    """splitmix64 of each instance index: the sampling key of bottom-k sampling.
+
+    Parameters
+    ----------
+    indices : array_like of int
+        Instance indices (>= 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        uint64 keys, a bijection of the indices that looks uniformly random.
+
+    Examples
+    --------
+    >>> sample_keys([0, 1]).tolist() == sample_keys([0, 1]).tolist()
+    True
+    >>> int(sample_keys([0])[0]) != int(sample_keys([1])[0])
+    True
+    """
     z = np.asarray(indices, dtype=np.uint64) + np.uint64(0x9E3779B97F4A7C15)
     with np.errstate(over="ignore"):
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -50,7 +68,30 @@ def sample_keys(indices: np.ndarray) -> np.ndarray:
 
 
 def mapped(file, count: int, dtype) -> np.ndarray:
-    """A read-only array of ``count`` values of ``file`` (memory-mapped; empty without values)."""
+    """A read-only array of the first ``count`` values of an open binary file, memory-mapped.
+
+    Parameters
+    ----------
+    file : file object
+        Opened for reading and writing (e.g. ``tempfile.TemporaryFile()``); flushed first.
+    count : int
+        Number of values.
+    dtype : numpy dtype
+        Their type.
+
+    Returns
+    -------
+    numpy.ndarray
+        A read-only ``numpy.memmap`` (an empty array when ``count`` is 0).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = tempfile.TemporaryFile()
+    >>> _ = f.write(np.arange(3, dtype=np.int64).tobytes())
+    >>> mapped(f, 3, np.int64).tolist()
+    [0, 1, 2]
+    """
     if count == 0:
         arr = np.empty(0, dtype=dtype)
     else:
@@ -58,6 +99,23 @@ def mapped(file, count: int, dtype) -> np.ndarray:
         arr = np.memmap(file, dtype=dtype, mode="r", shape=(count,))
     arr.flags.writeable = False
     return arr
+
+
+def remove_stale(folder: Path) -> None:
+    """Removes the temporary candidate files of runs that were killed (their process is gone)."""
+    for leftover in folder.glob(".candidates.parquet.*.tmp"):
+        try:
+            pid = int(leftover.name.split(".")[3])
+        except (IndexError, ValueError):
+            continue
+        if pid == os.getpid():
+            continue
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            leftover.unlink(missing_ok=True)
+        except OSError:  # alive under another user, or no way to tell: keep it
+            pass
 
 
 class _File:
@@ -121,6 +179,13 @@ class CandidateSet:
         -------
         pandas.DataFrame
             Columns: the parameters, then the sensors.
+
+        Examples
+        --------
+        >>> w = CandidateWriter(None, ("a",), ("S",))
+        >>> w.add([4], np.array([[1.0]]), np.array([[2.0]]))
+        >>> w.finish().frame().to_dict("index")
+        {4: {'a': 1.0, 'S': 2.0}}
         """
         import pyarrow.parquet as pq
 
@@ -128,7 +193,20 @@ class CandidateSet:
         return frame.set_index("instance")
 
     def parameters(self) -> np.ndarray:
-        """The candidates' parameters (n_c, p), read from the file."""
+        """The candidates' parameters, read from the file.
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 (n_c, p), in instance order.
+
+        Examples
+        --------
+        >>> w = CandidateWriter(None, ("a", "b"), ("S",))
+        >>> w.add([0, 2], np.array([[1.0, 2.0], [3.0, 4.0]]), np.zeros((2, 1)))
+        >>> w.finish().parameters().tolist()
+        [[1.0, 2.0], [3.0, 4.0]]
+        """
         import pyarrow.parquet as pq
 
         table = pq.read_table(self.path, columns=list(self.parameter_names))
@@ -147,6 +225,18 @@ class CandidateSet:
         -------
         pathlib.Path
             ``target``.
+
+        Raises
+        ------
+        OSError
+            If the file cannot be renamed or copied.
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> cs = CandidateWriter(None, ("a",), ("S",)).finish()
+        >>> cs.save(pathlib.Path(tempfile.mkdtemp()) / "candidates.parquet").name
+        'candidates.parquet'
         """
         target = Path(target)
         here = self.path
@@ -195,6 +285,7 @@ class CandidateWriter:
             folder = temporary = Path(tempfile.mkdtemp(prefix="edmf-rs-candidates-"))
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
+        remove_stale(folder)
         path = folder / f".candidates.parquet.{os.getpid()}.{uuid.uuid4().hex}.tmp"
         self.file = _File(path, temporary)
         self.schema = pa.schema([("instance", pa.int64())] + [(n, pa.float64()) for n in self.parameter_names]
@@ -254,3 +345,6 @@ class CandidateWriter:
             self.writer.close()
         finally:
             self.file.discard()
+
+
+__all__ = ["SAMPLE", "CandidateSet", "CandidateWriter", "mapped", "remove_stale", "sample_keys"]
