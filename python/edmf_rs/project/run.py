@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+
 from ..engine.borderline import BorderlineCounter
 from ..engine.sampling import Parameter, Sampling
 from ..engine.thresholds import threshold_bounds
