@@ -85,6 +85,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="run again the failed instances the prediction store holds (by default only those "
                           "that timed out under a shorter timeout are run again)")
 
+    from .project.refalsify import add_parser as add_falsify
+
+    add_falsify(sub, common)  # edmf-rs falsify STORE --project P.toml
+
     des = sub.add_parser("design", parents=[common], help="choose sensor locations before the test: "
                          "joint-entropy placement and expected identifiability (a project with [design])")
     des.add_argument("project", help="design project file, e.g. girder-design.toml")
@@ -108,6 +112,11 @@ def main(argv: list[str] | None = None) -> int:
             from .design.cli import design_cli
 
             return design_cli(args.project, out=args.out)
+        if args.command == "falsify":
+            from .project.refalsify import falsify_cli
+
+            return falsify_cli(args.store, args.project, out=args.out, progress=not args.no_progress,
+                               force=args.force)
         from .project.command import run_cli
 
         if args.example:

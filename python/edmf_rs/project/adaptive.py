@@ -25,12 +25,11 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..adaptive.result import AdaptiveResult
 from ..adaptive.waves import adaptive_falsify
@@ -126,7 +125,9 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
     neither candidates nor falsified, listed in failures.csv.
     """
     from ..engine.thresholds import threshold_bounds
+    from .candidates import CandidateWriter
     from .diagnostics import SensitivityTracker, leave_one_out
+    from .evaluation import discount_failed_runs
     from .qoi import prognosis_of
     from .result import PlotSample
     from .schema import ProjectError
@@ -148,25 +149,22 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
     finally:
         if evaluator is not None:
             evaluator.close()
-    falsification = result.falsification
-    if project.command is not None and falsification.n_invalid and falsification.per_sensor_falsified is not None:
-        # A failed run's row is all NaN, counted against every sensor: failed runs are not falsified.
-        falsification = replace(falsification,
-                                per_sensor_falsified=falsification.per_sensor_falsified - falsification.n_invalid)
+    falsification = discount_failed_runs(result.falsification, project.command is not None)
     tracker = SensitivityTracker(thresholds, combined, project.measured)
     sample = PlotSample(result.n_runs)
     tracker(0, result.run_parameters, result.run_predictions)
     sample(0, result.run_parameters, result.run_predictions)
-    candidates = pd.DataFrame(np.hstack([falsification.candidate_parameters, falsification.candidate_predictions]),
-                              columns=[*project.parameter_names, *project.sensor_names],
-                              index=pd.Index(falsification.candidate_indices, name="instance"))
+    writer = CandidateWriter(None, project.parameter_names, project.sensor_names)  # a few hundred real runs
+    writer.add(falsification.candidate_indices, falsification.candidate_parameters,
+               falsification.candidate_predictions)
+    candidates = writer.finish()
     prognoses = ()
     if falsification.n_candidates:
         prognoses = tuple(prognosis_of(project, spec, func, falsification.candidate_parameters)
                           for spec, func in project.prognosis)
     ident = Identification(project=project, combined=combined, thresholds=thresholds, falsification=falsification,
                            leave_one_out=leave_one_out(falsification, project.sensor_names),
-                           sensitivity=tracker.finish(), candidates=candidates, prognoses=prognoses,
+                           sensitivity=tracker.finish(), candidate_set=candidates, prognoses=prognoses,
                            sample=sample.finish(falsification.candidate_mask), elapsed=time.perf_counter() - start,
                            evaluation=evaluator.stats() if evaluator is not None else None)
     return AdaptiveIdentification(**{f: getattr(ident, f) for f in ident.__dataclass_fields__}, adaptive=result)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -93,3 +94,14 @@ class CheckedModel:
         self.offset += theta.shape[0]
         self.batch += 1
         return out
+
+
+def discount_failed_runs(result, external: bool):
+    """The result with failed external runs taken out of the per-sensor falsified counts.
+
+    A failed run's row is all NaN, which the falsification counts against every
+    sensor; failed instances are neither candidates nor falsified (issue 14).
+    """
+    if external and result.n_invalid and result.per_sensor_falsified is not None:
+        return replace(result, per_sensor_falsified=result.per_sensor_falsified - result.n_invalid)
+    return result

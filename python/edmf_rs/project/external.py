@@ -5,9 +5,12 @@ parallel workers and records failed runs (``[model] command``, ``workers``,
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from ..simulators import CommandModel, Evaluator, FailurePolicy
 from ..simulators.cluster import SchedulerUnreachable
 from ..simulators.columns import StoreColumns
+from ..simulators.evaluator import store_fingerprint
 from .schema import ProjectError
 
 
@@ -19,31 +22,48 @@ def command_model(spec, all_sensors, label: str) -> CommandModel:
         raise ProjectError(f"{label}: model.{exc}") from None
 
 
-def make_evaluator(project, out, workers, scheduler: str | None = None,
-                   retry_failures: bool = False) -> Evaluator | None:
+def sampling_key(project) -> dict:
+    """The sampling as the prediction store's fingerprint records it (with every sensor's name)."""
+    return {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
+            "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
+            "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters],
+            "sensors": [s.name for s in project.all_sensors]}
+
+
+def project_fingerprint(project) -> dict:
+    """The fingerprint of the project's prediction store (model and sampling), as `make_evaluator` keys it."""
+    m = project.model
+    return store_fingerprint(project.command, project.model_function, m.function or "", m.options,
+                             sampling_key(project))
+
+
+def make_evaluator(project, out, workers, scheduler: str | None = None, retry_failures: bool = False,
+                   store=None) -> Evaluator | None:
     """The simulators' evaluator (store, parallel runs, a Dask cluster, external programs), or None
-    when not needed. ``scheduler`` (``--scheduler``) overrides ``[compute] scheduler``."""
+    when not needed. ``scheduler`` (``--scheduler``) overrides ``[compute] scheduler``; with
+    ``store`` (a store folder ``<root>/<key>``), one that reads every instance from it and
+    evaluates none."""
     m = project.model
     workers = m.workers if workers is None else workers
-    scheduler = scheduler or m.scheduler
+    scheduler = None if store is not None else scheduler or m.scheduler
     if scheduler is not None and project.model_function is None:
         raise ProjectError(f"{project.file}: --scheduler {scheduler}: a Dask scheduler evaluates only a Python "
                            "model (model.function)")
-    if m.predictions is not None or (out is None and project.command is None and workers == 1 and scheduler is None):
+    if store is None and (m.predictions is not None or
+                          (out is None and project.command is None and workers == 1 and scheduler is None)):
         return None
     names = [s.name for s in project.all_sensors]
-    sampling = {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
-                "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
-                "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters], "sensors": names}
     positional, source = project.positional_sensors
     columns = StoreColumns(names, required=project.sensor_names, positional=positional, positional_source=source,
                            where=f"{project.file}: model.function = '{m.function}'")
     try:
         return Evaluator(project.parameter_names, names, project.sampling.n, command=project.command,
                          function=project.model_function, ref=m.function or "", path=m.path, options=m.options,
-                         workers=workers, out=out, sampling=sampling, store=m.store,
+                         workers=1 if store is not None else workers, out=out, sampling=sampling_key(project),
+                         store=m.store or store is not None,
                          policy=FailurePolicy(m.stop_after_failures, m.max_failure_rate), columns=columns,
-                         scheduler=scheduler, retry_failures=retry_failures)
+                         scheduler=scheduler, retry_failures=retry_failures,
+                         store_root=None if store is None else Path(store).parent, reuse_only=store is not None)
     except SchedulerUnreachable as exc:
         where = "--scheduler" if scheduler != m.scheduler else "compute.scheduler"
         raise ProjectError(f"{project.file}: {where}: {exc}") from None

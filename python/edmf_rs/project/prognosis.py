@@ -188,6 +188,15 @@ def predict(qoi_model: Callable, candidate_parameters, *, uncertainty=None, prob
     if not np.all(np.isfinite(q)):
         i = int(np.flatnonzero(~np.isfinite(q))[0])
         raise ValueError(f"{name}: the QoI model returned {q[i]} for candidate {i} ({theta[i].tolist()})")
+    q.flags.writeable = False
+    return over_range(q, float(q.min()), float(q.max()), uncertainty=uncertainty, probability=probability,
+                      name=name, unit=unit)
+
+
+def over_range(values: np.ndarray, low: float, high: float, *, uncertainty=None, probability: float = 0.95,
+               name: str = "quantity of interest", unit: str = "") -> Prognosis:
+    """The Prognosis of candidates whose q(theta) are ``values``, with their range ``[low, high]``
+    already known (computed batch by batch when the candidates stream to a file)."""
     probability = check_probability(probability, "probability")
     a = b = 0.0
     if uncertainty is not None:
@@ -195,6 +204,4 @@ def predict(qoi_model: Callable, candidate_parameters, *, uncertainty=None, prob
             raise TypeError("uncertainty: expected a scalar frozen scipy.stats distribution (e.g. norm(0, 0.5))")
         tail = 0.5 * (1.0 - probability)
         a, b = float(uncertainty.ppf(tail)), float(uncertainty.ppf(1.0 - tail))
-    q.flags.writeable = False
-    lo, hi = float(q.min()), float(q.max())
-    return Prognosis(name, unit, q, probability, uncertainty, (a, b), lo, hi, lo - b, hi - a)
+    return Prognosis(name, unit, values, probability, uncertainty, (a, b), low, high, low - b, high - a)

@@ -5,12 +5,15 @@ turned into a :class:`~edmf_rs.project.prognosis.Prognosis`."""
 
 from __future__ import annotations
 
+import math
+import tempfile
 from collections.abc import Callable
 
 import numpy as np
 
+from .candidates import mapped
 from .errors import call_user_code
-from .prognosis import predict
+from .prognosis import Prognosis, over_range, predict
 from .schema import PrognosisSpec, ProjectError
 from .sources import frozen
 
@@ -46,3 +49,36 @@ def prognosis_of(project, spec: PrognosisSpec, func: Callable, theta: np.ndarray
                        probability=spec.probability, name=spec.name, unit=spec.unit)
     except ValueError as exc:
         raise ProjectError(f"{project.file}: {spec.key}.function = '{spec.function}': {exc}") from None
+
+
+class PrognosisStream:
+    """A ``[[prognosis]]`` over candidates that arrive batch by batch (never all in memory).
+
+    The range is exact: min and max are updated with every batch. The values
+    go to an unlinked temporary file, memory-mapped as ``Prognosis.values``.
+    """
+
+    def __init__(self, project, spec: PrognosisSpec, func: Callable):
+        self.project, self.spec, self.func = project, spec, func
+        self.file = tempfile.TemporaryFile(prefix="edmf-rs-prognosis-")
+        self.count, self.low, self.high = 0, math.inf, -math.inf
+
+    def add(self, theta: np.ndarray, index: np.ndarray) -> None:
+        """q(theta) of one batch of candidates (``index``: their instance numbers, for messages)."""
+        q = call_prognosis(self.project, self.spec, self.func, theta, index=index).reshape(-1)
+        bad = np.flatnonzero(~np.isfinite(q))
+        if bad.size:
+            i = int(bad[0])
+            raise ProjectError(f"{self.project.file}: {self.spec.key}.function = '{self.spec.function}': "
+                               f"{self.spec.name}: returned {q[i]} for candidate instance {int(index[i])} "
+                               f"({describe(self.project, theta[i])}); expected a finite number")
+        self.file.write(np.ascontiguousarray(q, dtype=np.float64).tobytes())
+        self.count += q.size
+        self.low, self.high = min(self.low, float(q.min())), max(self.high, float(q.max()))
+
+    def finish(self) -> Prognosis:
+        """The prognosis over every candidate added (at least one)."""
+        spec = self.spec
+        uncertainty = frozen(*spec.uncertainty) if spec.uncertainty is not None else None
+        return over_range(mapped(self.file, self.count, np.float64), self.low, self.high, uncertainty=uncertainty,
+                          probability=spec.probability, name=spec.name, unit=spec.unit)

@@ -8,6 +8,7 @@ import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -17,50 +18,18 @@ from ..engine.result import FalsificationResult
 from ..engine.sensors import SensorMapping
 from ..engine.thresholds import Thresholds
 from ..engine.uncertainty import CombinedUncertainty
-from ..stream.atomic import atomic_path, write_bytes, write_text
+from ..stream.atomic import write_bytes, write_text
+from .candidates import CandidateSet
 from .diagnostics import LeaveOneOut, Sensitivity, findings
 from .format import number
 from .prognosis import Prognosis, predict
+from .sample import PLOT_SAMPLE, InstanceSample, PlotSample  # noqa: F401 (re-exported)
 
-#: Instances kept for the plots; falsified ones are drawn from this sample.
-PLOT_SAMPLE = 3000
 SUMMARY_SCHEMA = "edmf_rs.project-summary/2"  # /2: threshold_low, threshold_high (were low, high)
 #: The files ``Identification.write`` writes (summary.json last).
 FIGURES = ("leave_one_out", "residuals", "scatter_matrix", "parallel_coordinates", "sensitivity")
 OUTPUT_FILES = (*(f"{name}.png" for name in FIGURES), "candidates.parquet", "thresholds.csv", "report.html",
                 "summary.json")
-
-
-class PlotSample:
-    """A deterministic sample of every instance (every k-th one) for plots: falsified
-    instances are not kept by the falsification, so the plots draw on this."""
-
-    def __init__(self, n_instances: int, limit: int = PLOT_SAMPLE):
-        self.stride = max(1, math.ceil(n_instances / limit))
-        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-
-    def __call__(self, offset: int, parameters: np.ndarray, predictions: np.ndarray) -> None:
-        first = (-offset) % self.stride  # the next multiple of stride at or after offset
-        # copies: a view would keep the whole batch alive
-        self.parts.append((np.arange(offset + first, offset + parameters.shape[0], self.stride),
-                           parameters[first::self.stride].copy(),
-                           np.array(predictions[first::self.stride], dtype=np.float64)))
-
-    def finish(self, candidate_mask: np.ndarray) -> InstanceSample:
-        if not self.parts:
-            return InstanceSample(np.empty(0, np.int64), np.empty((0, 0)), np.empty((0, 0)), np.empty(0, bool))
-        index, theta, predictions = (np.concatenate(x) for x in zip(*self.parts))
-        return InstanceSample(index, theta, predictions, candidate_mask[index])
-
-
-@dataclass(frozen=True, eq=False)
-class InstanceSample:
-    """Every k-th instance: index, parameters, predictions and whether it is a candidate."""
-
-    index: np.ndarray
-    parameters: np.ndarray
-    predictions: np.ndarray
-    is_candidate: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,8 +51,12 @@ class Identification:
     sensitivity : Sensitivity
         Candidate set size against a scale factor on all uncertainties and
         against phi.
+    candidate_set : CandidateSet
+        The candidates, streamed to a Parquet file during the run, with their
+        exact count and parameter ranges and a bounded sample for the plots.
     candidates : pandas.DataFrame
-        The candidates' parameters and predictions, indexed by instance.
+        The candidates' parameters and predictions, indexed by instance (read
+        from the candidate file when first asked for: it holds every candidate).
     prognoses : tuple of Prognosis
         The ``[[prognosis]]`` quantities over the candidates.
     sample : InstanceSample
@@ -108,7 +81,7 @@ class Identification:
     falsification: FalsificationResult
     leave_one_out: LeaveOneOut
     sensitivity: Sensitivity
-    candidates: pd.DataFrame
+    candidate_set: CandidateSet
     prognoses: tuple[Prognosis, ...]
     sample: InstanceSample
     elapsed: float
@@ -120,6 +93,11 @@ class Identification:
     @property
     def model_class_falsified(self) -> bool:
         return self.falsification.model_class_falsified
+
+    @cached_property
+    def candidates(self) -> pd.DataFrame:
+        """Every candidate's parameters and predictions, indexed by instance (read from the file)."""
+        return self.candidate_set.frame()
 
     def predict(self, qoi_model: Callable, uncertainty=None, *, probability: float = 0.95,
                 name: str = "quantity of interest", unit: str = "") -> Prognosis:
@@ -155,7 +133,7 @@ class Identification:
         >>> q.model_low <= 70 <= q.model_high
         True
         """
-        return predict(qoi_model, self.falsification.candidate_parameters, uncertainty=uncertainty,
+        return predict(qoi_model, self.candidate_set.parameters(), uncertainty=uncertainty,
                        probability=probability, name=name, unit=unit)
 
     def parameter_ranges(self) -> dict[str, tuple[float, float] | None]:
@@ -164,7 +142,8 @@ class Identification:
         Returns
         -------
         dict
-            Parameter name -> (min, max), or None without candidates.
+            Parameter name -> (min, max), or None without candidates (exact:
+        computed over every candidate as they streamed to the file).
 
         Examples
         --------
@@ -174,9 +153,7 @@ class Identification:
         >>> list(ident.parameter_ranges())
         ['E']
         """
-        theta = self.falsification.candidate_parameters
-        return {p.name: (float(theta[:, j].min()), float(theta[:, j].max())) if theta.shape[0] else None
-                for j, p in enumerate(self.project.parameters)}
+        return {p.name: self.candidate_set.ranges[p.name] for p in self.project.parameters}
 
     def findings(self) -> list[str]:
         """Diagnostics in words: sensors, sensitivity, and parameters at their domain's edge.
@@ -405,8 +382,7 @@ class Identification:
         figures = report_plots.figures(self)
         for name, png in figures.items():
             write_bytes(out / f"{name}.png", png)
-        with atomic_path(out / "candidates.parquet") as tmp:
-            self.candidates.reset_index().to_parquet(tmp, index=False)
+        self.candidate_set.save(out / "candidates.parquet")  # renamed from its temporary name, or copied
         write_text(out / "thresholds.csv", self.thresholds_table().to_csv(index=False))
         write_text(out / "report.html", report.render(self, figures))
         write_text(out / "summary.json", json.dumps(self.summary_dict(), indent=2) + "\n")

@@ -12,20 +12,19 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..engine.borderline import BorderlineCounter
-from ..engine.model import falsify_model
 from ..engine.sampling import Parameter, Sampling
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
 from ..simulators import CommandModel, Evaluator
+from .candidates import CandidateWriter
 from .diagnostics import SensitivityTracker, leave_one_out
-from .evaluation import CheckedModel
+from .evaluation import CheckedModel, discount_failed_runs
 from .external import command_model, make_evaluator
 from .inputs import check_model_sensors, check_sensors, import_function
 from .measurements import read_measurements
@@ -37,10 +36,11 @@ from .precomputed import (
     precomputed_instances,
 )
 from .progress import Progress
-from .qoi import call_prognosis, prognosis_of
+from .qoi import PrognosisStream, call_prognosis
 from .result import Identification, PlotSample
 from .schema import ModelSpec, PrognosisSpec, ProjectError, Sensor, read_spec
 from .sources import UncertaintySource, combine_sources, resolve_sources
+from .streaming import falsify_streaming
 
 __all__ = ["Project", "ProjectError"]
 
@@ -303,7 +303,7 @@ class Project:
 
     def run(self, *, progress: bool | Progress = True, max_seconds: float | None = None,
             out: str | Path | None = None, workers: int | None = None, scheduler: str | None = None,
-            retry_failures: bool = False) -> Identification:
+            retry_failures: bool = False, store: str | Path | None = None) -> Identification:
         """Thresholds, falsification of every instance and diagnostics, in one pass.
 
         Samples the parameters (or, with ``method = "adaptive"``, runs EDMF in
@@ -322,7 +322,9 @@ class Project:
         out : path, optional
             The output folder, where the evaluated instances are stored as they
             arrive (``out/store``, reused by the next run with the same model
-            and sampling) with failed runs in ``out/failures.csv``.
+            and sampling) with failed runs in ``out/failures.csv``, and the
+            candidates stream to a temporary file that ``write(out)`` renames
+            to ``candidates.parquet`` (without ``out``: a temporary folder).
         workers : int, optional
             Parallel model runs (default: ``[model] workers``).
         scheduler : str, optional
@@ -331,12 +333,17 @@ class Project:
         retry_failures : bool, default False
             Run again every failed instance the prediction store holds (by
             default only those that timed out under a shorter ``timeout``).
+        store : path, optional
+            A prediction store folder to read every instance from, evaluating
+            none (``edmf-rs falsify``; checked by `edmf_rs.project.refalsify`).
 
         Returns
         -------
         Identification
-            The falsification result, thresholds, diagnostics, candidates (a
-            DataFrame) and prognoses; ``.write(folder)`` saves the report.
+            The falsification result, thresholds, diagnostics, candidates (in
+            a Parquet file; ``.candidates`` reads them as a DataFrame) and
+            prognoses; ``.write(folder)`` saves the report. Memory does not
+            grow with the instances nor with the candidates.
 
         Raises
         ------
@@ -362,14 +369,14 @@ class Project:
         start = time.perf_counter()
         combined = self.combined_uncertainty()
         thresholds = threshold_bounds(combined, self.phi, self.correction)
-        evaluator = make_evaluator(self, out, workers, scheduler, retry_failures)
+        evaluator = make_evaluator(self, out, workers, scheduler, retry_failures, store)
         try:
-            return self._run(start, combined, thresholds, evaluator, progress, max_seconds)
+            return self._run(start, combined, thresholds, evaluator, progress, max_seconds, out)
         finally:
             if evaluator is not None:
                 evaluator.close()
 
-    def _run(self, start, combined, thresholds, evaluator, progress, max_seconds) -> Identification:
+    def _run(self, start, combined, thresholds, evaluator, progress, max_seconds, out) -> Identification:
         model, parameters, n_instances = self._instances(evaluator)
         tracker = SensitivityTracker(thresholds, combined, self.measured)
         sample = PlotSample(n_instances)
@@ -390,34 +397,35 @@ class Project:
                 reporter.update(theta.shape[0])
 
         reporter = progress if isinstance(progress, Progress) else Progress(n_instances) if progress else None
+        writer = CandidateWriter(out, self.parameter_names, self.sensor_names)
+        streams = [PrognosisStream(self, spec, func) for spec, func in self.prognosis]
+
+        def sink(indices, theta, predictions):  # each batch's candidates, streamed out (never all in memory)
+            if indices.size:
+                writer.add(indices, theta, predictions)
+                sample.mark(indices)
+                for stream in streams:
+                    stream.add(theta, indices)
+
         try:
-            result = falsify_model(model, parameters, self.measured, thresholds, batch_size=self.model.batch_size,
-                                   progress=False, nan="falsify" if self.command else self.model.nan,
-                                   on_batch=on_batch)
+            result = falsify_streaming(model, parameters, self.measured, thresholds, sink=sink, on_batch=on_batch,
+                                       candidate_indices=writer.candidate_indices,
+                                       nan="falsify" if self.command else self.model.nan)
+            candidate_set = writer.finish()
+        except BaseException:
+            writer.abort()
+            raise
         finally:
             if reporter is not None:
                 reporter.close()
-        if self.command is not None and result.n_invalid and result.per_sensor_falsified is not None:
-            # A failed run's row is all NaN, which the falsification counts against every sensor;
-            # failed instances are neither candidates nor falsified.
-            result = replace(result, per_sensor_falsified=result.per_sensor_falsified - result.n_invalid)
-        mapping = (evaluator.mapping if evaluator is not None and self.command is None else None) or \
-            getattr(model, "mapping", None)
-        candidates = pd.DataFrame(
-            np.hstack([result.candidate_parameters, result.candidate_predictions]),
-            columns=[*self.parameter_names, *self.sensor_names],
-            index=pd.Index(result.candidate_indices, name="instance"),
-        )
-        prognoses = ()
-        if result.n_candidates:
-            prognoses = tuple(prognosis_of(self, spec, func, result.candidate_parameters, result.candidate_indices)
-                              for spec, func in self.prognosis)
+        result = discount_failed_runs(result, self.command is not None)
+        mapping = (self.command is None and getattr(evaluator, "mapping", None)) or getattr(model, "mapping", None)
         return Identification(
             project=self, combined=combined, thresholds=thresholds, falsification=result,
             leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
-            candidates=candidates, prognoses=prognoses, sample=sample.finish(result.candidate_mask),
-            elapsed=time.perf_counter() - start, borderline=borderline.count, sensor_mapping=mapping,
-            evaluation=evaluator.stats() if evaluator else None,
+            candidate_set=candidate_set, prognoses=tuple(s.finish() for s in streams) if result.n_candidates else (),
+            sample=sample.finish(), elapsed=time.perf_counter() - start, borderline=borderline.count,
+            sensor_mapping=mapping, evaluation=evaluator.stats() if evaluator else None,
         )
 
     def _instances(self, evaluator: Evaluator | None = None):

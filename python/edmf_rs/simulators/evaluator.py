@@ -27,6 +27,16 @@ from .store import PredictionStore, StoredRows
 FLUSH_SECONDS = 1.0
 
 
+def store_fingerprint(command: CommandModel | None, function, ref: str, options: dict, sampling) -> dict:
+    """What a prediction store is keyed by: the model (the command and its templates, or the
+    function's reference, source and options) and the sampling."""
+    if command is not None:
+        model_key = command.fingerprint()
+    else:
+        model_key = {"kind": "function", "ref": ref, "source": _source_digest(function), "options": dict(options)}
+    return {"model": model_key, "sampling": sampling}
+
+
 class Evaluator:
     """Evaluates model instances batch by batch, with a prediction store.
 
@@ -62,6 +72,10 @@ class Evaluator:
         Run again every failed instance the store holds. Without it, only
         those that timed out under a shorter timeout than the command's
         are run again.
+    store_root
+        The store's folder (default ``out/store``), e.g. another run's store.
+    reuse_only
+        Evaluate nothing: every instance must be in the store (``edmf-rs falsify``).
 
     Examples
     --------
@@ -75,7 +89,8 @@ class Evaluator:
     def __init__(self, parameters, sensors, n_planned: int, *, command: CommandModel | None = None,
                  function=None, ref: str = "", path=".", options: dict | None = None, workers: int = 1,
                  out=None, sampling: dict | None = None, store: bool = True, policy: FailurePolicy = FailurePolicy(),
-                 columns: StoreColumns | None = None, scheduler: str | None = None, retry_failures: bool = False):
+                 columns: StoreColumns | None = None, scheduler: str | None = None, retry_failures: bool = False,
+                 store_root=None, reuse_only: bool = False):
         self.parameters, self.sensors, self.n_planned = tuple(parameters), tuple(sensors), n_planned
         self.columns = columns if columns is not None else StoreColumns(self.sensors)
         self.retry_failures = retry_failures
@@ -86,14 +101,11 @@ class Evaluator:
         self.offset = self.model_evaluations = self.reused_evaluations = 0
         self.failures: list[Failure] = []
         self._first_failed = 0
-        if command is not None:
-            model_key = command.fingerprint()
-        else:
-            model_key = {"kind": "function", "ref": ref, "source": _source_digest(function),
-                         "options": self.options}
-        self.store = (PredictionStore(self.out / "store", {"model": model_key, "sampling": sampling},
+        root = Path(store_root) if store_root is not None else self.out / "store" if self.out is not None else None
+        self.store = (PredictionStore(root, store_fingerprint(command, function, ref, self.options, sampling),
                                       self.parameters, self.sensors)
-                      if self.out is not None and store else None)
+                      if root is not None and store else None)
+        self.reuse_only = reuse_only
         self._temp = None
         if command is not None:
             if self.out is not None:
@@ -121,6 +133,9 @@ class Evaluator:
         # The rows the store holds (a prefix of the batch: it holds instances 0..covered-1) are reused.
         k = min(max(self.store.covered() - first, 0), n) if self.store is not None else 0
         parts = [self._reuse(first, theta[:k])] if k else []
+        if k < n and self.reuse_only:
+            raise SimulationError(f"the prediction store {self.store.folder if self.store else None} holds no "
+                                  f"instance {first + k}; this run evaluates no model (reuse only)")
         if k < n:
             parts.append(self._evaluate(first + k, theta[k:]))
         self.offset += n

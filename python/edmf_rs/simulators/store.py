@@ -62,6 +62,11 @@ class StoredRows:
             object.__setattr__(self, "timeout", np.array([timed_out_after(r) for r in self.reason], dtype=float))
 
 
+def store_key(fingerprint: dict) -> str:
+    """The name of a model's store folder: a hash of its fingerprint (JSON, keys sorted)."""
+    return hashlib.sha256(json.dumps(fingerprint, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
 class PredictionStore:
     """Parameters, predictions and failures of evaluated instances, in ``folder``.
 
@@ -91,7 +96,7 @@ class PredictionStore:
 
     def __init__(self, root, fingerprint: dict, parameters, sensors):
         text = json.dumps(fingerprint, sort_keys=True, default=str)
-        self.key = hashlib.sha256(text.encode()).hexdigest()[:16]
+        self.key = store_key(fingerprint)
         self.root = Path(root)
         self.folder = self.root / self.key
         self.parameters, self.sensors = tuple(parameters), tuple(sensors)

@@ -2,7 +2,8 @@
 
 Falsified instances are not kept by the falsification, so they are drawn from
 the run's deterministic sample of every k-th instance; candidates are drawn
-all, or an evenly spaced subset of them when there are many.
+all, or, when there are many, the candidate set's bounded sample (bottom-k of
+the hashed instance index, see :mod:`edmf_rs.project.candidates`).
 """
 
 from __future__ import annotations
@@ -44,9 +45,11 @@ def _evenly(n: int, limit: int) -> np.ndarray:
 
 
 def _candidates(ident) -> tuple[np.ndarray, np.ndarray]:
-    r = ident.falsification
-    keep = _evenly(r.n_candidates, MAX_CANDIDATES)
-    return r.candidate_parameters[keep], r.candidate_predictions[keep]
+    """Parameters and predictions of the candidates drawn: the candidate set's bounded sample
+    (all of them when there are at most ``candidates.SAMPLE``), never every candidate."""
+    c = ident.candidate_set
+    keep = _evenly(c.sample_index.size, MAX_CANDIDATES)
+    return c.sample_parameters[keep], c.sample_predictions[keep]
 
 
 def _falsified(ident) -> tuple[np.ndarray, np.ndarray]:
