@@ -40,6 +40,28 @@ impl Binning {
     /// Widths must be finite and > 0; NaN predictions are an error unless
     /// `nan_bin`; infinite predictions are always an error.
     pub fn new<T: Prediction>(g: Matrix<'_, T>, widths: &[f64], nan_bin: bool) -> Result<Self> {
+        Self::build(g, widths, nan_bin, None)
+    }
+
+    /// As [`Binning::new`], the rows shared among the workers of `pool`
+    /// in blocks (minima and maxima are exact, so the result is the same;
+    /// the error reported is that of the first bad value, row after row).
+    pub fn new_in<T: Prediction>(
+        g: Matrix<'_, T>,
+        widths: &[f64],
+        nan_bin: bool,
+        pool: &rayon::ThreadPool,
+    ) -> Result<Self> {
+        Self::build(g, widths, nan_bin, Some(pool))
+    }
+
+    fn build<T: Prediction>(
+        g: Matrix<'_, T>,
+        widths: &[f64],
+        nan_bin: bool,
+        pool: Option<&rayon::ThreadPool>,
+    ) -> Result<Self> {
+        use rayon::prelude::*;
         let l = g.cols();
         if widths.len() != l {
             return Err(EdmfError::invalid(
@@ -57,31 +79,20 @@ impl Binning {
                 format!("finite widths > 0, got {w} at location {i}"),
             ));
         }
+        const BLOCK: usize = 1024;
+        let scan = |r0: usize| scan_rows(g, r0..(r0 + BLOCK).min(g.rows()), nan_bin);
+        let starts: Vec<usize> = (0..g.rows()).step_by(BLOCK).collect();
+        let blocks: Vec<Result<(Vec<f64>, Vec<f64>)>> = match pool {
+            Some(pool) => pool.install(|| starts.par_iter().map(|&r0| scan(r0)).collect()),
+            None => starts.iter().map(|&r0| scan(r0)).collect(),
+        };
         let mut min = vec![f64::INFINITY; l];
         let mut max = vec![f64::NEG_INFINITY; l];
-        for k in 0..g.rows() {
+        for block in blocks {
+            let (lo, hi) = block?;
             for i in 0..l {
-                let v = g.get(k, i).to_f64();
-                if v.is_nan() {
-                    if !nan_bin {
-                        return Err(EdmfError::invalid(
-                            "predictions",
-                            format!(
-                                "no NaN (got one at instance {k}, location {i}); pass nan_policy='bin' \
-                                 to give NaN predictions a bin of their own"
-                            ),
-                        ));
-                    }
-                    continue;
-                }
-                if v.is_infinite() {
-                    return Err(EdmfError::invalid(
-                        "predictions",
-                        format!("finite values, got {v} at instance {k}, location {i}"),
-                    ));
-                }
-                min[i] = min[i].min(v);
-                max[i] = max[i].max(v);
+                min[i] = min[i].min(lo[i]);
+                max[i] = max[i].max(hi[i]);
             }
         }
         let mut n_bins = vec![1.0; l];
@@ -128,6 +139,44 @@ impl Binning {
             ((v - self.min[i]) / self.width[i]).floor()
         }
     }
+}
+
+/// Minimum and maximum of each location over `rows` (NaN skipped when
+/// `nan_bin`); the first bad value, row after row, is the error.
+fn scan_rows<T: Prediction>(
+    g: Matrix<'_, T>,
+    rows: std::ops::Range<usize>,
+    nan_bin: bool,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let l = g.cols();
+    let mut min = vec![f64::INFINITY; l];
+    let mut max = vec![f64::NEG_INFINITY; l];
+    for k in rows {
+        for i in 0..l {
+            let v = g.get(k, i).to_f64();
+            if v.is_nan() {
+                if !nan_bin {
+                    return Err(EdmfError::invalid(
+                        "predictions",
+                        format!(
+                            "no NaN (got one at instance {k}, location {i}); pass nan_policy='bin' \
+                             to give NaN predictions a bin of their own"
+                        ),
+                    ));
+                }
+                continue;
+            }
+            if v.is_infinite() {
+                return Err(EdmfError::invalid(
+                    "predictions",
+                    format!("finite values, got {v} at instance {k}, location {i}"),
+                ));
+            }
+            min[i] = min[i].min(v);
+            max[i] = max[i].max(v);
+        }
+    }
+    Ok((min, max))
 }
 
 /// `floor((v - min) / w)` for a dense location, `nan` for NaN. `v - min >= 0`
@@ -185,15 +234,49 @@ pub(crate) fn relabel(keys: &[f64], out: &mut [u32]) {
     }
 }
 
+/// A dense bin label as stored: the narrowest unsigned type that holds a
+/// location's labels (u8 up to 256 bins, u16 up to 65,536, else u32).
+pub trait Bin: Copy + PartialEq + Send + Sync + 'static {
+    /// The largest label this type holds.
+    const MAX: u32;
+    fn index(self) -> usize;
+    /// `v` must be at most [`Bin::MAX`].
+    fn from_u32(v: u32) -> Self;
+}
+
+macro_rules! impl_bin {
+    ($t:ty) => {
+        impl Bin for $t {
+            const MAX: u32 = <$t>::MAX as u32;
+            #[inline(always)]
+            fn index(self) -> usize {
+                self as usize
+            }
+            #[inline(always)]
+            fn from_u32(v: u32) -> Self {
+                v as $t
+            }
+        }
+    };
+}
+impl_bin!(u8);
+impl_bin!(u16);
+impl_bin!(u32);
+
 /// Groups of instances that share a tuple of bins, singletons left out.
+/// Pairs (the commonest group once most instances are told apart) are
+/// kept apart from the larger groups: a pair either stays together or
+/// splits, which needs no counting.
 #[derive(Debug, Clone)]
 pub struct Partition {
     n: usize,
-    /// Members of the groups of two or more, group after group.
+    /// Members of the groups of three or more, group after group.
     order: Vec<u32>,
-    /// Start of each group in `order`, plus the end.
+    /// Start of each of those groups in `order`, plus the end.
     starts: Vec<u32>,
-    /// The members in instance order (rows read forwards).
+    /// The groups of two.
+    pairs: Vec<[u32; 2]>,
+    /// All the members in instance order (rows read forwards).
     sorted: Vec<u32>,
     /// `sum_t c_t log2 c_t` over the current tuples.
     sum_clog: f64,
@@ -209,18 +292,40 @@ pub(crate) fn clog_table(n: usize) -> Vec<f64> {
 impl Partition {
     /// The empty set of locations: all `n` instances in one group.
     pub fn new(n: usize, clog: &[f64]) -> Self {
-        let (order, starts) = if n >= 2 {
-            ((0..n as u32).collect(), vec![0, n as u32])
-        } else {
-            (Vec::new(), vec![0])
-        };
-        Partition {
+        let mut part = Partition {
             n,
-            sorted: order.clone(),
-            order,
-            starts,
+            order: Vec::new(),
+            starts: vec![0],
+            pairs: Vec::new(),
+            sorted: Vec::new(),
             sum_clog: clog[n],
+        };
+        let all: Vec<u32> = (0..n as u32).collect();
+        part.set_groups(all, if n >= 2 { vec![0, n as u32] } else { vec![0] });
+        part
+    }
+
+    /// Stores the groups (of two or more, one after another in `members`),
+    /// pairs apart.
+    fn set_groups(&mut self, members: Vec<u32>, starts: Vec<u32>) {
+        let mut order = Vec::with_capacity(members.len());
+        let mut big = vec![0u32];
+        let mut pairs = Vec::new();
+        for w in starts.windows(2) {
+            let g = &members[w[0] as usize..w[1] as usize];
+            if let [a, b] = g {
+                pairs.push([*a, *b]);
+            } else {
+                order.extend_from_slice(g);
+                big.push(order.len() as u32);
+            }
         }
+        let mut sorted = members;
+        sorted.sort_unstable();
+        self.order = order;
+        self.starts = big;
+        self.pairs = pairs;
+        self.sorted = sorted;
     }
 
     /// H of the current set (Eq. 3 of Papadopoulou et al. 2014), in bits.
@@ -230,7 +335,7 @@ impl Partition {
 
     /// Instances still sharing their tuple with another one.
     pub fn n_confused(&self) -> usize {
-        self.order.len()
+        self.sorted.len()
     }
 
     /// Those instances in increasing order: the only rows whose bins matter.
@@ -238,59 +343,80 @@ impl Partition {
         &self.sorted
     }
 
+    /// The groups: those of three or more, then the pairs.
+    fn groups(&self) -> impl Iterator<Item = &[u32]> {
+        self.starts
+            .windows(2)
+            .map(|w| &self.order[w[0] as usize..w[1] as usize])
+            .chain(self.pairs.iter().map(|p| p.as_slice()))
+    }
+
     /// `sum_t c_t log2 c_t` after adding a location whose dense bins are
-    /// `bins`, without changing the partition. `count` must be zeros, of at
-    /// least the bin count; it is left zeroed. Each member's bin is read
-    /// once: the bins a group touches are listed as they first appear.
-    pub fn score(&self, bins: &[u32], count: &mut [u32], clog: &[f64]) -> f64 {
+    /// `bins` (indexed by instance), without changing the partition. `count`
+    /// must be zeros, of at least the bin count; it is left zeroed; `touched`
+    /// is working space.
+    ///
+    /// Most groups do not split on a given location: a branch-free check
+    /// that every member shares the first one's bin settles those (the
+    /// group keeps its term); only groups that split are counted, each
+    /// member's bin once, the bins it touches listed as they first appear.
+    pub fn score<B: Bin>(&self, bins: &[B], count: &mut [u32], touched: &mut Vec<u32>, clog: &[f64]) -> f64 {
         let mut acc = 0.0;
-        let mut touched: Vec<u32> = Vec::new();
         for w in self.starts.windows(2) {
             let members = &self.order[w[0] as usize..w[1] as usize];
-            if let [a, b] = members {
-                // A pair (the commonest group late on) stays together or splits.
-                if bins[*a as usize] == bins[*b as usize] {
-                    acc += clog[2];
-                }
+            let first = bins[members[0] as usize];
+            let mut same = true;
+            for &k in &members[1..] {
+                same &= bins[k as usize] == first;
+            }
+            if same {
+                acc += clog[members.len()];
                 continue;
             }
             touched.clear();
             for &k in members {
-                let b = bins[k as usize];
-                let c = &mut count[b as usize];
+                let b = bins[k as usize].index();
+                let c = &mut count[b];
                 if *c == 0 {
-                    touched.push(b);
+                    touched.push(b as u32);
                 }
                 *c += 1;
             }
-            for &b in &touched {
+            for &b in touched.iter() {
                 acc += clog[count[b as usize] as usize];
                 count[b as usize] = 0;
             }
         }
-        acc
+        // Pairs that stay together, each `2 log2 2 = 2`: counted, not summed.
+        let together: u64 = self
+            .pairs
+            .iter()
+            .map(|&[a, b]| (bins[a as usize] == bins[b as usize]) as u64)
+            .sum();
+        acc + together as f64 * clog[2.min(self.n)]
     }
 
     /// Splits every group by `bins` (the location is added to the set).
     /// New groups are numbered by first appearance, then counting-sorted, so
     /// the result depends on the inputs only.
-    pub fn refine(&mut self, bins: &[u32], map: &mut [u32], clog: &[f64]) {
-        let mut label = vec![0u32; self.order.len()];
+    pub fn refine<B: Bin>(&mut self, bins: &[B], map: &mut [u32], clog: &[f64]) {
+        let mut label = Vec::with_capacity(self.sorted.len());
+        let mut members = Vec::with_capacity(self.sorted.len());
         let mut sizes: Vec<u32> = Vec::new();
-        for w in self.starts.windows(2) {
-            let (s, e) = (w[0] as usize, w[1] as usize);
-            for j in s..e {
-                let b = bins[self.order[j] as usize] as usize;
+        for group in self.groups() {
+            for &k in group {
+                let b = bins[k as usize].index();
                 if map[b] == 0 {
                     sizes.push(0);
                     map[b] = sizes.len() as u32; // id + 1
                 }
                 let id = map[b] - 1;
-                label[j] = id;
+                label.push(id);
+                members.push(k);
                 sizes[id as usize] += 1;
             }
-            for j in s..e {
-                map[bins[self.order[j] as usize] as usize] = 0;
+            for &k in group {
+                map[bins[k as usize].index()] = 0;
             }
         }
         // Counting sort of the members by new group, singletons dropped.
@@ -307,16 +433,13 @@ impl Partition {
             }
         }
         let mut order = vec![0u32; total as usize];
-        for (j, &id) in label.iter().enumerate() {
+        for (&k, &id) in members.iter().zip(&label) {
             if sizes[id as usize] >= 2 {
-                order[offset[id as usize] as usize] = self.order[j];
+                order[offset[id as usize] as usize] = k;
                 offset[id as usize] += 1;
             }
         }
-        self.sorted = order.clone();
-        self.sorted.sort_unstable();
-        self.order = order;
-        self.starts = starts;
+        self.set_groups(order, starts);
         self.sum_clog = sum;
     }
 }
