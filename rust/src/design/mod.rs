@@ -15,6 +15,7 @@ pub mod bins;
 pub mod entropy;
 pub mod identifiability;
 pub mod options;
+pub mod partition;
 pub mod placement;
 pub mod tiles;
 
