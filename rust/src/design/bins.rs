@@ -188,6 +188,21 @@ impl BinMatrix {
         BinMatrix { columns, labels }
     }
 
+    /// Keeps the rows `rows` of every column, in that order (see
+    /// [`super::partition::Partition::renumber`]).
+    pub fn compact(&mut self, rows: &[u32], pool: &ThreadPool) {
+        fn gather<B: Bin>(v: &mut Vec<B>, rows: &[u32]) {
+            *v = rows.iter().map(|&r| v[r as usize]).collect();
+        }
+        pool.install(|| {
+            self.columns.par_iter_mut().for_each(|c| match c {
+                Column::U8(v) => gather(v, rows),
+                Column::U16(v) => gather(v, rows),
+                Column::U32(v) => gather(v, rows),
+            })
+        });
+    }
+
     /// Labels of the largest location (a counting array's length).
     pub fn max_labels(&self) -> usize {
         self.labels.iter().copied().max().unwrap_or(1).max(1) as usize

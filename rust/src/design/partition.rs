@@ -56,6 +56,65 @@ pub struct Partition {
     sum_clog: f64,
 }
 
+/// Groups up to this size that split are counted by comparing their
+/// members' bins pairwise, in registers, rather than through a counting
+/// array (whose increments of one bin wait on each other).
+const SMALL: usize = 12;
+
+/// `sum_b c_b log2 c_b` over the bins of a group of at most [`SMALL`]
+/// members: each bin's term is added at its first member, `c_b` counted
+/// by comparisons.
+#[inline]
+fn small_group<B: Bin>(members: &[u32], bins: &[B], clog: &[f64]) -> f64 {
+    let s = members.len();
+    let mut x = [0usize; SMALL];
+    for (j, &k) in members.iter().enumerate() {
+        x[j] = bins[k as usize].index();
+    }
+    let x = &x[..s];
+    let mut acc = 0.0;
+    for j in 0..s {
+        let b = x[j];
+        let mut c = 0usize;
+        let mut earlier = false;
+        for (i, &y) in x.iter().enumerate() {
+            let eq = y == b;
+            c += eq as usize;
+            earlier |= eq & (i < j);
+        }
+        acc += if earlier { 0.0 } else { clog[c] };
+    }
+    acc
+}
+
+/// `sum_b c_b log2 c_b` over the bins of a group much larger than the bin
+/// count: members counted into four interleaved arrays (consecutive
+/// increments of one bin then do not wait on each other), then every bin
+/// read once. `count` is `4 x labels` zeros, left zeroed.
+fn large_group<B: Bin>(members: &[u32], bins: &[B], count: &mut [u32], clog: &[f64]) -> f64 {
+    let labels = count.len() / 4;
+    let (c0, rest) = count.split_at_mut(labels);
+    let (c1, rest) = rest.split_at_mut(labels);
+    let (c2, c3) = rest.split_at_mut(labels);
+    let quads = members.chunks_exact(4);
+    for &k in quads.remainder() {
+        c0[bins[k as usize].index()] += 1;
+    }
+    for q in quads {
+        c0[bins[q[0] as usize].index()] += 1;
+        c1[bins[q[1] as usize].index()] += 1;
+        c2[bins[q[2] as usize].index()] += 1;
+        c3[bins[q[3] as usize].index()] += 1;
+    }
+    let mut acc = 0.0;
+    for b in 0..labels {
+        let c = c0[b] + c1[b] + c2[b] + c3[b];
+        acc += clog[c as usize];
+        (c0[b], c1[b], c2[b], c3[b]) = (0, 0, 0, 0);
+    }
+    acc
+}
+
 /// `c log2 c` for every count up to `n`: each count's term, computed once.
 pub(crate) fn clog_table(n: usize) -> Vec<f64> {
     (0..=n)
@@ -117,6 +176,21 @@ impl Partition {
         &self.sorted
     }
 
+    /// Renames the members `0..m` in group order (the groups of three or
+    /// more, then the pairs) and returns the old name of each new one: rows
+    /// of the labels gathered in this order put every group in a contiguous
+    /// range, and groups split later stay inside their range, so evaluations
+    /// read the labels nearly in sequence.
+    pub fn renumber(&mut self) -> Vec<u32> {
+        let mut rows = std::mem::take(&mut self.order);
+        rows.extend(self.pairs.iter().flatten());
+        let big = self.starts.last().copied().unwrap_or(0);
+        self.order = (0..big).collect();
+        self.pairs = (big..rows.len() as u32).step_by(2).map(|a| [a, a + 1]).collect();
+        self.sorted = (0..rows.len() as u32).collect();
+        rows
+    }
+
     /// The groups: those of three or more, then the pairs.
     fn groups(&self) -> impl Iterator<Item = &[u32]> {
         self.starts
@@ -126,15 +200,23 @@ impl Partition {
     }
 
     /// `sum_t c_t log2 c_t` after adding a location whose dense bins are
-    /// `bins` (indexed by instance), without changing the partition. `count`
-    /// must be zeros, of at least the bin count; it is left zeroed; `touched`
-    /// is working space.
+    /// `bins` (indexed by instance, each below `labels`), without changing
+    /// the partition. `count` must be zeros, of at least `labels` (four
+    /// times that lets large groups be counted in four interleaved arrays);
+    /// it is left zeroed; `touched` is working space.
     ///
     /// Most groups do not split on a given location: a branch-free check
     /// that every member shares the first one's bin settles those (the
     /// group keeps its term); only groups that split are counted, each
     /// member's bin once, the bins it touches listed as they first appear.
-    pub fn score<B: Bin>(&self, bins: &[B], count: &mut [u32], touched: &mut Vec<u32>, clog: &[f64]) -> f64 {
+    pub fn score<B: Bin>(
+        &self,
+        bins: &[B],
+        labels: usize,
+        count: &mut [u32],
+        touched: &mut Vec<u32>,
+        clog: &[f64],
+    ) -> f64 {
         let mut acc = 0.0;
         for w in self.starts.windows(2) {
             let members = &self.order[w[0] as usize..w[1] as usize];
@@ -145,6 +227,14 @@ impl Partition {
             }
             if same {
                 acc += clog[members.len()];
+                continue;
+            }
+            if members.len() <= SMALL {
+                acc += small_group(members, bins, clog);
+                continue;
+            }
+            if members.len() >= 4 * labels && count.len() >= 4 * labels {
+                acc += large_group(members, bins, &mut count[..4 * labels], clog);
                 continue;
             }
             touched.clear();
@@ -226,4 +316,3 @@ pub(crate) fn entropy_of(n: usize, sum_clog: f64) -> f64 {
     let h = (n as f64).log2() - sum_clog / n as f64;
     h.max(0.0)
 }
-

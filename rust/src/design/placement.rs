@@ -77,7 +77,8 @@ impl<T: Prediction> Evaluator<'_, T> {
                 .map(|&i| {
                     let mut s = my_scratch(s);
                     let Scratch { count, touched, .. } = &mut *s;
-                    with_column!(&bm.columns[i], |c| part.score(c, count, touched, clog))
+                    let labels = bm.labels[i] as usize;
+                    with_column!(&bm.columns[i], |c| part.score(c, labels, count, touched, clog))
                 })
                 .collect(),
             Evaluator::Stream { g, tile } => batch
@@ -125,7 +126,17 @@ pub fn place<T: Prediction>(
     if stop() {
         return Err(EdmfError::Interrupted);
     }
-    let s = scratch(pool, tile * n, count_len);
+    // Four counting arrays' worth (large groups are counted interleaved)
+    // unless the bins are so many that one is large already.
+    let s = scratch(
+        pool,
+        tile * n,
+        if count_len <= 1 << 16 {
+            4 * count_len
+        } else {
+            count_len
+        },
+    );
     let mut part = Partition::new(n, &clog);
     let mut taken = vec![false; l];
     let mut used = vec![0usize; opts.max_per_type.len()];
@@ -138,9 +149,23 @@ pub fn place<T: Prediction>(
     let mut bins = vec![0u32; if tile > 0 { n } else { 0 }];
     let mut map = vec![0u32; count_len];
     let cost = |i: usize| opts.costs.as_ref().map_or(1.0, |c| c[i]);
-    let mut add = |i: usize, part: &mut Partition, out: &mut Placement| {
-        match &eval {
-            Evaluator::Bins(bm) => with_column!(&bm.columns[i], |c| part.refine(c, &mut map, &clog)),
+    let mut eval = eval;
+    // Rows the labels were last compacted to (N at first).
+    let mut rows_kept = n;
+    let mut add = |i: usize, part: &mut Partition, out: &mut Placement, eval: &mut Evaluator<'_, T>| {
+        match eval {
+            Evaluator::Bins(bm) => {
+                with_column!(&bm.columns[i], |c| part.refine(c, &mut map, &clog));
+                // Drop the rows told apart and put the groups in contiguous
+                // ranges: after the first sensor, then whenever a quarter of
+                // the rows kept has been told apart.
+                let m = part.n_confused();
+                if out.order.is_empty() || 4 * m <= 3 * rows_kept {
+                    let rows = part.renumber();
+                    bm.compact(&rows, pool);
+                    rows_kept = m;
+                }
+            }
             Evaluator::Stream { .. } => {
                 column_bins(g, &binning, i, Some(part.confused()), &mut bins);
                 part.refine(&bins, &mut map, &clog);
@@ -155,7 +180,7 @@ pub fn place<T: Prediction>(
         if !used.is_empty() {
             used[opts.type_of[i]] += 1;
         }
-        add(i, &mut part, &mut out);
+        add(i, &mut part, &mut out, &mut eval);
     }
     // Bound of each location's gain (per unit cost): its last evaluated one.
     let mut bound = vec![f64::INFINITY; l];
@@ -218,7 +243,7 @@ pub fn place<T: Prediction>(
         if !used.is_empty() {
             used[opts.type_of[i]] += 1;
         }
-        add(i, &mut part, &mut out);
+        add(i, &mut part, &mut out, &mut eval);
     }
     Ok(out)
 }

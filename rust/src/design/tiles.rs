@@ -72,7 +72,8 @@ pub(crate) fn score_block<T: Prediction>(
             if !dense[c] {
                 column_bins(g, binning, i, None, bins);
             }
-            part.score(bins, &mut s.count, &mut s.touched, clog)
+            let labels = if dense[c] { binning.n_bins[i] as usize } else { n };
+            part.score(bins, labels, &mut s.count, &mut s.touched, clog)
         })
         .collect()
 }
