@@ -191,15 +191,24 @@ impl BinMatrix {
     /// Keeps the rows `rows` of every column, in that order (see
     /// [`super::partition::Partition::renumber`]).
     pub fn compact(&mut self, rows: &[u32], pool: &ThreadPool) {
-        fn gather<B: Bin>(v: &mut Vec<B>, rows: &[u32]) {
-            *v = rows.iter().map(|&r| v[r as usize]).collect();
+        // Gathered through a worker's buffer and written back in place: no
+        // new column is allocated (fresh pages would fault in every time).
+        fn gather<B: Bin>(v: &mut Vec<B>, rows: &[u32], tmp: &mut Vec<u32>) {
+            tmp.clear();
+            tmp.extend(rows.iter().map(|&r| v[r as usize].index() as u32));
+            v.truncate(rows.len());
+            for (d, &s) in v.iter_mut().zip(tmp.iter()) {
+                *d = B::from_u32(s);
+            }
         }
         pool.install(|| {
-            self.columns.par_iter_mut().for_each(|c| match c {
-                Column::U8(v) => gather(v, rows),
-                Column::U16(v) => gather(v, rows),
-                Column::U32(v) => gather(v, rows),
-            })
+            self.columns
+                .par_iter_mut()
+                .for_each_init(Vec::new, |tmp, c| match c {
+                    Column::U8(v) => gather(v, rows, tmp),
+                    Column::U16(v) => gather(v, rows, tmp),
+                    Column::U32(v) => gather(v, rows, tmp),
+                })
         });
     }
 
