@@ -15,13 +15,15 @@ side by side in one run.
     python benches/design.py               # issue targets: N=10^5, L=500, k=20
     python benches/design.py --big 1000000 1000
 
-Timings are best-of-1 wall clock (time.perf_counter); the CPU model and the
-thread count are printed with them.
+Timings are best-of-1 wall clock (time.perf_counter) with the process CPU
+time (all threads); the CPU model, the thread count and the load average
+are printed with them, and the run ends with the issue's targets table.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import resource
 import subprocess
@@ -67,8 +69,12 @@ def timed(f):
 
 
 def bench_placement(g, widths, k, pairs_per_size=3):
+    """Lazy greedy (the default) and plain greedy (every remaining location at
+    every step: the per-pair comparison with the reference) side by side."""
     t_rust, d = timed(lambda: design.place_sensors(g, widths, k))
-    per_pair_rust = t_rust / d.evaluations
+    t_plain, plain = timed(lambda: design.place_sensors(g, widths, k, lazy=False))
+    assert plain.order.tolist() == d.order.tolist(), "lazy and plain greedy disagree"
+    per_pair_rust = t_plain / plain.evaluations
     order = d.order.tolist()
     b = ref.bins(g, widths)
     samples = []
@@ -78,7 +84,7 @@ def bench_placement(g, widths, k, pairs_per_size=3):
         t, _ = timed(lambda: [ref.entropy_of_tuples(b[:, s + [i]]) for i in others])
         samples.append(t / len(others))
     per_pair_ref = float(np.mean(samples))
-    return t_rust, d, per_pair_rust, per_pair_ref
+    return t_rust, d, t_plain, plain, per_pair_rust, per_pair_ref
 
 
 def main(argv=None) -> None:
@@ -93,20 +99,23 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     if a.quick:
         a.n, a.locations, a.k, a.sims, a.ref_sims = 10_000, 100, 10, 200, 10
-    print(f"CPU: {cpu_model()}; edmf_rs threads: {edmf_rs.get_num_threads()}")
+    print(f"CPU: {cpu_model()}; edmf_rs threads: {edmf_rs.get_num_threads()}; "
+          f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     g = predictions(a.n, a.locations)
     sd = np.full(a.locations, 0.01)
     combined = edmf_rs.combine(measurement=[stats.norm(0, sd)])
     widths = design.interval_widths(combined, a.k)
     print(f"\nGreedy placement: N={a.n}, L={a.locations}, k={a.k}, float64")
-    t_rust, d, pp_rust, pp_ref = bench_placement(g, widths, a.k)
-    cpu_rust = CPU_TIMES[0]
-    print(f"  edmf_rs: {t_rust:.3f} s wall, {cpu_rust:.3f} s CPU (all threads), {d.evaluations} (step, location) "
-          f"pairs evaluated, H = {d.joint_entropy[-1]:.3f} bits")
-    print(f"  per pair: edmf_rs {pp_rust * 1e3:.3f} ms, NumPy reference {pp_ref * 1e3:.3f} ms "
+    t_rust, d, t_plain, plain, pp_rust, pp_ref = bench_placement(g, widths, a.k)
+    cpu_rust, cpu_plain = CPU_TIMES[0], CPU_TIMES[1]
+    print(f"  edmf_rs lazy greedy: {t_rust:.3f} s wall, {cpu_rust:.3f} s CPU (all threads), {d.evaluations} "
+          f"(step, location) pairs evaluated, H = {d.joint_entropy[-1]:.3f} bits")
+    print(f"  edmf_rs plain greedy: {t_plain:.3f} s wall, {cpu_plain:.3f} s CPU, {plain.evaluations} pairs "
+          "(same order)")
+    print(f"  per pair (plain greedy): edmf_rs {pp_rust * 1e3:.3f} ms, NumPy reference {pp_ref * 1e3:.3f} ms "
           f"-> {pp_ref / pp_rust:.0f}x")
     print(f"  whole greedy run, NumPy reference (estimated k x L pairs): {pp_ref * a.k * a.locations:.0f} s "
-          f"-> {pp_ref * a.k * a.locations / t_rust:.0f}x")
+          f"-> {pp_ref * a.k * a.locations / t_rust:.0f}x the lazy run")
 
     order = d.order.tolist()
     print(f"\nExpected identifiability: {a.sims} simulations, N={a.n}, {a.k} sensors")
@@ -118,8 +127,22 @@ def main(argv=None) -> None:
     print(f"  edmf_rs: {t_ei:.3f} s wall, {cpu_ei:.3f} s CPU (mean candidate set {r.mean:.1f}); NumPy reference: "
           f"{t_ref / a.ref_sims * 1e3:.1f} ms per simulation -> {t_ref / a.ref_sims * a.sims / t_ei:.0f}x")
     t_curve, c = timed(lambda: design.identifiability_curve(g, combined, order, n_simulations=a.sims))
-    print(f"  curve k = 1..{a.k}: {t_curve:.3f} s wall, {CPU_TIMES[-1]:.3f} s CPU; mean candidate-set sizes "
+    cpu_curve = CPU_TIMES[-1]
+    print(f"  curve k = 1..{a.k}: {t_curve:.3f} s wall, {cpu_curve:.3f} s CPU; mean candidate-set sizes "
           + " ".join(f"{v:.0f}" for v in c.mean) + f"; smallest with {c.best} sensors")
+    load = os.getloadavg()[0]
+    print(f"\nTargets (N={a.n}, L={a.locations}, k={a.k}; {cpu_model()}, {edmf_rs.get_num_threads()} threads, "
+          f"load average {load:.2f}; on a busy machine wall time exceeds CPU time / threads)")
+    rows = [("greedy placement (lazy)", "<= 1.5 s", t_rust, cpu_rust, t_rust <= 1.5),
+            ("  per pair vs NumPy (plain)", ">= 30x", None, None, pp_ref / pp_rust >= 30),
+            (f"identifiability, {a.sims} sims", "<= 2 s", t_ei, cpu_ei, t_ei <= 2.0),
+            (f"curve k = 1..{a.k}", "<= 20 s", t_curve, cpu_curve, t_curve <= 20.0)]
+    print(f"  {'':32s} {'target':>9s} {'wall s':>8s} {'CPU s':>8s}  met")
+    for name, target, wall, cpu, ok in rows:
+        if wall is None:
+            print(f"  {name:32s} {target:>9s} {pp_ref / pp_rust:>7.0f}x {'':>8s}  {'yes' if ok else 'NO'}")
+        else:
+            print(f"  {name:32s} {target:>9s} {wall:8.3f} {cpu:8.3f}  {'yes' if ok else 'NO'}")
 
     if a.big:
         n, n_loc = a.big

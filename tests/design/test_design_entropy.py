@@ -137,3 +137,78 @@ def test_bad_input_names_the_argument(kwargs, name):
     g = np.arange(12.0).reshape(4, 3)
     with pytest.raises(ValueError, match=f"^{name}:"):
         design.place_sensors(g, args.pop("widths"), args.pop("k"), **args)
+
+
+@given(problems(), st.data())
+def test_quotas_per_type_match_reference(problem, data):
+    g, w, rng = problem
+    n_loc = g.shape[1]
+    types = [["deflection", "strain", "rotation"][t] for t in rng.integers(0, 3, size=n_loc)]
+    present = sorted(set(types))
+    quota = {t: int(rng.integers(0, 3)) for t in present if rng.random() < 0.7}
+    k = int(rng.integers(1, n_loc + 1))
+    lazy = data.draw(st.booleans())
+    d = design.place_sensors(g, w, k, types=types, max_per_type=quota, lazy=lazy)
+    order, h = ref.place_sensors(g, w, k, types=types, max_per_type=quota)
+    assert d.order.tolist() == order
+    np.testing.assert_allclose(d.joint_entropy, h, atol=1e-9)
+    for t, q in quota.items():
+        assert sum(types[i] == t for i in d.order) <= q
+
+
+@given(problems())
+def test_lazy_and_plain_greedy_choose_the_same(problem):
+    g, w, rng = problem
+    k = int(rng.integers(1, g.shape[1] + 1))
+    lazy = design.place_sensors(g, w, k)
+    plain = design.place_sensors(g, w, k, lazy=False)
+    assert lazy.order.tolist() == plain.order.tolist()
+    assert lazy.joint_entropy.tolist() == plain.joint_entropy.tolist()
+    assert lazy.evaluations <= plain.evaluations
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_many_ties_repeated_and_mirrored_columns(seed):
+    # Every location is one of three splits, repeated and mirrored: at each
+    # step many locations tie exactly, and the lowest index must win.
+    rng = np.random.default_rng(seed)
+    base = rng.integers(0, 2, size=(64, 3)).astype(float)
+    pick = rng.integers(0, 3, size=30)
+    g = np.where(rng.random(30) < 0.5, base[:, pick], 1.0 - base[:, pick])
+    w = np.full(30, 0.5)
+    for lazy in (True, False):
+        d = design.place_sensors(g, w, 10, lazy=lazy)
+        order, h = ref.place_sensors(g, w, 10)
+        assert d.order.tolist() == order
+        np.testing.assert_allclose(d.joint_entropy, h, atol=1e-12)
+
+
+@pytest.mark.parametrize(("n", "levels"), [(3000, 300), (3000, 2000), (20_000, 70_000)])
+def test_more_bins_than_a_byte_or_two_hold(n, levels):
+    # 300 and 2000 bins: labels stored as u16; 70,000 bins (<= 4N): u32.
+    rng = np.random.default_rng(levels)
+    g = rng.integers(0, levels, size=(n, 5)).astype(np.float64)
+    g[:, 1] = g[:, 0] // 7  # a coarser copy of location 0
+    g[:, 3] = g[:, 2]  # a repeat: ties
+    w = np.ones(5)
+    d = design.place_sensors(g, w, 4)
+    order, h = ref.place_sensors(g, w, 4)
+    assert d.order.tolist() == order
+    np.testing.assert_allclose(d.joint_entropy, h, atol=1e-9)
+    assert design.place_sensors(g, w, 4, lazy=False).order.tolist() == order
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "err"),
+    [
+        ({"max_per_type": {"a": 1}}, ValueError),  # no types
+        ({"types": ["a", "b", "b"], "max_per_type": {"c": 1}}, ValueError),
+        ({"types": ["a", "b", "b"], "max_per_type": {"a": -1}}, ValueError),
+        ({"types": ["a", "b", "b"], "max_per_type": {"a": 0}, "fixed": [0]}, ValueError),
+        ({"types": ["a", "b", "b"], "max_per_type": [1]}, TypeError),
+    ],
+)
+def test_bad_quotas_name_max_per_type(kwargs, err):
+    g = np.arange(12.0).reshape(4, 3)
+    with pytest.raises(err, match="^max_per_type:"):
+        design.place_sensors(g, [1.0, 1.0, 1.0], 2, **kwargs)

@@ -93,3 +93,32 @@ def non_negative(value, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
         raise ValueError(f"{name}: expected a finite number >= 0, got {value!r}")
     return float(value)
+
+
+def quotas(max_per_type, types, fixed, n_locations: int):
+    """(type index of each location, most sensors per type index) for the
+    core, or (None, None) without quotas."""
+    if max_per_type is None:
+        return None, None
+    if not isinstance(max_per_type, dict):
+        raise TypeError(f"max_per_type: expected a dict of sensor type to a number of sensors, got {max_per_type!r}")
+    if types is None:
+        raise ValueError("max_per_type: expected types=... (one sensor type per location) to go with it")
+    names = sorted(set(types))
+    unknown = [t for t in max_per_type if t not in names]
+    if unknown:
+        raise ValueError(f"max_per_type: expected sensor types of the locations ({', '.join(names)}), "
+                         f"got {unknown[0]!r}")
+    limit = []
+    for t in names:
+        q = max_per_type.get(t, n_locations)
+        if isinstance(q, bool) or not isinstance(q, numbers.Integral) or q < 0:
+            raise ValueError(f"max_per_type: expected a number of sensors >= 0 for {t!r}, got {q!r}")
+        limit.append(min(int(q), n_locations))
+    index = {t: j for j, t in enumerate(names)}
+    type_of = [index[t] for t in types]
+    for t, q in zip(names, limit):
+        used = sum(1 for i in fixed if types[i] == t)
+        if used > q:
+            raise ValueError(f"max_per_type: expected at least the {used} fixed sensors of type {t!r}, got {q}")
+    return type_of, limit

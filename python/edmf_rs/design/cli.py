@@ -24,7 +24,7 @@ def run_design(project_path, out=None) -> dict:
     widths = interval_widths(combined, project.k, project.phi, project.correction)
     design = place_sensors(g, widths, project.k, fixed=project.fixed, costs=project.costs,
                            types=[c.type for c in project.candidates], budget=project.budget,
-                           tolerance=project.tolerance)
+                           tolerance=project.tolerance, max_per_type=project.max_per_type)
     if len(design) == 0:
         raise ValueError(f"{project.file}: design: no sensor was chosen (tolerance too high?)")
     curve = identifiability_curve(g, combined, design.order, n_simulations=project.n_simulations,

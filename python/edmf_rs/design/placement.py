@@ -67,7 +67,7 @@ class SensorDesign:
 
 
 def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=None, budget=None,
-                  tolerance=None, nan_policy: str = "raise") -> SensorDesign:
+                  tolerance=None, nan_policy: str = "raise", max_per_type=None, lazy: bool = True) -> SensorDesign:
     """Greedy sensor placement maximising the joint entropy of the predictions.
 
     Parameters
@@ -87,7 +87,7 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
         its cost (information per unit cost).
     types : sequence of str, optional
         Sensor type of each location (deflection, strain, ...), reported with
-        the design.
+        the design and used by ``max_per_type``.
     budget : float, optional
         Total cost the design may not exceed (needs ``costs``; at least the
         cheapest sensor).
@@ -95,6 +95,14 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
         Stop when the best gain falls below this many bits.
     nan_policy : {"raise", "bin"}
         Refuse NaN predictions, or give them a bin of their own.
+    max_per_type : dict of str to int, optional
+        Most sensors of a type (fixed ones included), e.g. ``{"strain": 5}``;
+        types not named are not limited. Needs ``types``.
+    lazy : bool
+        Evaluate gains lazily (joint entropy is submodular: a location whose
+        last gain cannot reach the best is not evaluated again). The choice is
+        that of plain greedy either way; ``False`` evaluates every remaining
+        location at every step (for checking, slower).
 
     Returns
     -------
@@ -104,8 +112,9 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
     ------
     ValueError
         Bad widths, NaN predictions, k > L, fixed sensors out of range or
-        repeated, costs <= 0, a budget below the cheapest sensor; the message
-        names the argument.
+        repeated, costs <= 0, a budget below the cheapest sensor, quotas of
+        unknown types, below 0 or below the fixed sensors of a type; the
+        message names the argument.
 
     Examples
     --------
@@ -114,6 +123,8 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
     >>> d = place_sensors(g, [0.5, 0.5, 0.5], k=2)
     >>> d.order.tolist(), d.joint_entropy.tolist()
     ([2, 0], [1.0, 1.5])
+    >>> place_sensors(g, [0.5] * 3, k=2, types=["a", "b", "b"], max_per_type={"b": 1}).order.tolist()
+    [2, 0]
     """
     g = _checks.predictions_array(predictions)
     n, n_loc = g.shape
@@ -143,7 +154,9 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
         if len(types) != n_loc:
             raise ValueError(f"types: expected one type per location ({n_loc}), got {len(types)}")
     tol = None if tolerance is None else _checks.non_negative(tolerance, "tolerance")
-    order, entropy, evaluations = _core.design_place(g, w, k, fixed, c, budget, tol, _checks.nan_bin(nan_policy))
+    type_of, quotas = _checks.quotas(max_per_type, types, fixed, n_loc)
+    order, entropy, evaluations = _core.design_place(g, w, k, fixed, c, budget, tol, _checks.nan_bin(nan_policy),
+                                                     type_of, quotas, not bool(lazy))
     order = np.asarray(order, dtype=np.int64)
     return SensorDesign(
         order=order,

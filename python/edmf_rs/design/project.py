@@ -8,10 +8,17 @@ uncertainty sources, plus a [design] table naming the candidate locations.
     n_simulations = 1000
     tolerance = 0.0                 # optional: stop when the gain (bits) falls below it
     fixed = ["D10-LC1"]             # optional: sensors every design has
+    max_per_type = { strain = 5 }   # optional: most sensors of a type
+    predictions = "g.npy"           # optional: precomputed predictions instead of a model
+    columns = "g-columns.txt"       # optional, .npy only: its column names
 
 The model (``[model] function``) returns one column per candidate location:
 a DataFrame whose columns are the candidate names, or an array in the order
-of the candidates file. [[uncertainty]] sources select locations by name or
+of the candidates file. With ``predictions`` (N x L, a .npy memory map or a
+CSV with a header of names; see :mod:`edmf_rs.design._precomputed`) no
+model, parameters or sampling are read; the columns are matched to the
+candidates by name and the candidates taken in the columns' order. Several
+load cases are simply more candidate locations (one column each). [[uncertainty]] sources select locations by name or
 type as they select sensors; ``relative_to = "measured"`` is relative to the
 mean prediction at the location (nothing is measured yet). [measurements] is
 not used. Widths of the bins are those of each location's threshold bounds
@@ -42,6 +49,7 @@ from ..project.schema import (
     _uncertainty,
 )
 from ..project.sources import combine_sources, resolve_sources
+from . import _precomputed
 
 TOP_LEVEL = ("identification", "parameters", "sampling", "model", "uncertainty", "design")
 
@@ -69,7 +77,7 @@ class DesignProject:
     correction: str
     n_samples: int
     seed: int
-    sampling: Sampling
+    sampling: Sampling | None
     candidates: tuple[Candidate, ...]
     uncertainty: tuple
     model_function: object
@@ -80,14 +88,19 @@ class DesignProject:
     tolerance: float | None
     n_simulations: int
     fixed: tuple[int, ...]
+    max_per_type: dict | None = None
+    predictions_file: Path | None = None
 
     @property
     def costs(self) -> np.ndarray:
         return np.array([c.cost for c in self.candidates])
 
     def predictions(self) -> np.ndarray:
-        """(N, L) predictions of every instance at every candidate, checked against the candidates."""
+        """(N, L) predictions of every instance at every candidate, checked against the candidates
+        (a read-only memory map, not copied, for a .npy predictions file)."""
         names = [c.name for c in self.candidates]
+        if self.predictions_file is not None:
+            return _precomputed.load_predictions(self.predictions_file, len(names), str(self.file))
         parts = []
         for theta in self.sampling.batches(self.batch_size):
             out = self.model_function(theta, **self.model_options)
@@ -187,16 +200,27 @@ def read_design_project(path: str | Path) -> DesignProject:
     n_samples = ident.get("n_samples", "int", 200_000, what="a number of Monte Carlo samples >= 1000")
     if n_samples < 1000:
         raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
-    parameters = _parameters(root)
-    model = _model(root, path.parent)
-    if model.function is None:
-        raise ProjectError(f"{label}: model.function: expected a model function for a design "
-                           "(precomputed predictions are not supported here)")
-    sampling = _sampling(root, parameters)
     t = root.table("design")
-    t.check_keys(("candidates", "k", "budget", "tolerance", "n_simulations", "fixed"))
+    t.check_keys(("candidates", "k", "budget", "tolerance", "n_simulations", "fixed", "max_per_type", "predictions",
+                  "columns"))
     candidates = read_candidates(path.parent / t.get("candidates", "str", what="a CSV file of candidate locations"),
                                  label)
+    predictions_file = t.get("predictions", "str", None, what="a .npy or .csv file of predictions")
+    function = sampling = model = None
+    if predictions_file is not None:
+        predictions_file = path.parent / predictions_file
+        names = _precomputed.column_names(predictions_file, t.data.get("columns"), label)
+        candidates = _precomputed.in_column_order(candidates, names, label)
+    else:
+        if "columns" in t.data:
+            raise t.error("columns", "no columns without design.predictions", t.data["columns"])
+        parameters = _parameters(root)
+        model = _model(root, path.parent)
+        if model.function is None:
+            raise ProjectError(f"{label}: model.function: expected a model function for a design "
+                               "(or design.predictions, a file of precomputed predictions)")
+        sampling = _sampling(root, parameters)
+        function = import_function(model.function, model.path, label, "model.function")
     sensors = tuple(Sensor(c.name, 0.0, type=c.type, location=c.location, unit=c.unit) for c in candidates)
     sources = resolve_sources(_uncertainty(root), sensors, tuple(range(len(sensors))), label)
     k = t.get("k", "int", len(candidates), what=f"a number of sensors in 1..{len(candidates)}")
@@ -212,12 +236,19 @@ def read_design_project(path: str | Path) -> DesignProject:
     unknown = [f for f in fixed_names if f not in index]
     if unknown:
         raise t.error("fixed", "names of candidate locations", unknown[0])
-    function = import_function(model.function, model.path, label, "model.function")
+    max_per_type = t.get("max_per_type", "table", None, what="a table of sensor type = most sensors")
+    if max_per_type is not None:
+        types = {c.type for c in candidates}
+        for key, value in max_per_type.items():
+            if key not in types:
+                raise t.error("max_per_type", f"sensor types of the candidates ({', '.join(sorted(types))})", key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise t.error("max_per_type", f"a number of sensors >= 0 for {key!r}", value)
     return DesignProject(
         file=path, name=ident.get("name", "str", path.stem), description=ident.get("description", "str", ""),
         phi=phi, correction=ident.get("correction", "choice", "sidak", choices=CORRECTIONS),
         n_samples=n_samples, seed=ident.get("seed", "int", 0), sampling=sampling, candidates=candidates,
-        uncertainty=sources, model_function=function, model_options=model.options, batch_size=model.batch_size,
-        k=k, budget=budget, tolerance=tolerance, n_simulations=n_sim,
-        fixed=tuple(index[f] for f in fixed_names),
+        uncertainty=sources, model_function=function, model_options=model.options if model else {},
+        batch_size=model.batch_size if model else 0, k=k, budget=budget, tolerance=tolerance, n_simulations=n_sim,
+        fixed=tuple(index[f] for f in fixed_names), max_per_type=max_per_type, predictions_file=predictions_file,
     )

@@ -52,8 +52,9 @@ def joint_entropy(predictions, widths, sensors=None, nan_bin: bool = False) -> f
 
 
 def place_sensors(predictions, widths, k, fixed=(), costs=None, budget=None, tolerance=None,
-                  nan_bin: bool = False) -> tuple[list[int], list[float]]:
-    """Greedy placement: (chosen locations in order, H after each one)."""
+                  nan_bin: bool = False, types=None, max_per_type=None) -> tuple[list[int], list[float]]:
+    """Greedy placement: (chosen locations in order, H after each one); at
+    most ``max_per_type[t]`` sensors of type ``t`` (``types`` per location)."""
     b = bins(predictions, widths, nan_bin)
     n_loc = b.shape[1]
     cost = np.ones(n_loc) if costs is None else np.asarray(costs, dtype=np.float64)
@@ -64,8 +65,11 @@ def place_sensors(predictions, widths, k, fixed=(), costs=None, budget=None, tol
         spent += cost[i] if costs is not None else 0.0
     while len(order) < k:
         h = entropies[-1] if order else 0.0
+        quota = max_per_type or {}
         remaining = [i for i in range(n_loc) if i not in order
-                     and (budget is None or spent + cost[i] <= budget)]
+                     and (budget is None or spent + cost[i] <= budget)
+                     and (types is None or types[i] not in quota
+                          or sum(types[j] == types[i] for j in order) < quota[types[i]])]
         if not remaining:
             break
         hs = [entropy_of_tuples(b[:, order + [i]]) for i in remaining]

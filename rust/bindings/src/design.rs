@@ -43,7 +43,8 @@ fn design_joint_entropy(
 
 /// Greedy placement: `(order, entropy after each sensor, evaluations)`.
 #[pyfunction]
-#[pyo3(signature = (predictions, widths, k, fixed, costs=None, budget=None, tolerance=None, nan_bin=false))]
+#[pyo3(signature = (predictions, widths, k, fixed, costs=None, budget=None, tolerance=None, nan_bin=false,
+                    type_of=None, max_per_type=None, exhaustive=false, bin_memory=None))]
 #[allow(clippy::too_many_arguments)]
 fn design_place<'py>(
     py: Python<'py>,
@@ -55,6 +56,10 @@ fn design_place<'py>(
     budget: Option<f64>,
     tolerance: Option<f64>,
     nan_bin: bool,
+    type_of: Option<Vec<usize>>,
+    max_per_type: Option<Vec<usize>>,
+    exhaustive: bool,
+    bin_memory: Option<usize>,
 ) -> PyResult<(Vector<'py, u64>, Vector<'py, f64>, u64)> {
     let widths = widths.as_array().to_vec();
     let opts = PlacementOptions {
@@ -64,6 +69,10 @@ fn design_place<'py>(
         budget,
         tolerance,
         nan_bin,
+        type_of: type_of.unwrap_or_default(),
+        max_per_type: max_per_type.unwrap_or_default(),
+        exhaustive,
+        bin_memory,
     };
     let pool = pool::current()?;
     let p = with_view!(predictions, |g| detached(py, |stop| design::place(

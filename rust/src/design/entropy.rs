@@ -13,6 +13,8 @@
 //! `1 log2 1 = 0`, so they are dropped from the partition: later steps read only
 //! the instances that are still confused with another.
 
+pub(crate) use super::partition::{clog_table, entropy_of};
+pub use super::partition::{Bin, Partition};
 use crate::error::{EdmfError, Result};
 use crate::kernel::Prediction;
 use crate::matrix::Matrix;
@@ -40,6 +42,28 @@ impl Binning {
     /// Widths must be finite and > 0; NaN predictions are an error unless
     /// `nan_bin`; infinite predictions are always an error.
     pub fn new<T: Prediction>(g: Matrix<'_, T>, widths: &[f64], nan_bin: bool) -> Result<Self> {
+        Self::build(g, widths, nan_bin, None)
+    }
+
+    /// As [`Binning::new`], the rows shared among the workers of `pool`
+    /// in blocks (minima and maxima are exact, so the result is the same;
+    /// the error reported is that of the first bad value, row after row).
+    pub fn new_in<T: Prediction>(
+        g: Matrix<'_, T>,
+        widths: &[f64],
+        nan_bin: bool,
+        pool: &rayon::ThreadPool,
+    ) -> Result<Self> {
+        Self::build(g, widths, nan_bin, Some(pool))
+    }
+
+    fn build<T: Prediction>(
+        g: Matrix<'_, T>,
+        widths: &[f64],
+        nan_bin: bool,
+        pool: Option<&rayon::ThreadPool>,
+    ) -> Result<Self> {
+        use rayon::prelude::*;
         let l = g.cols();
         if widths.len() != l {
             return Err(EdmfError::invalid(
@@ -57,31 +81,20 @@ impl Binning {
                 format!("finite widths > 0, got {w} at location {i}"),
             ));
         }
+        const BLOCK: usize = 1024;
+        let scan = |r0: usize| scan_rows(g, r0..(r0 + BLOCK).min(g.rows()), nan_bin);
+        let starts: Vec<usize> = (0..g.rows()).step_by(BLOCK).collect();
+        let blocks: Vec<Result<(Vec<f64>, Vec<f64>)>> = match pool {
+            Some(pool) => pool.install(|| starts.par_iter().map(|&r0| scan(r0)).collect()),
+            None => starts.iter().map(|&r0| scan(r0)).collect(),
+        };
         let mut min = vec![f64::INFINITY; l];
         let mut max = vec![f64::NEG_INFINITY; l];
-        for k in 0..g.rows() {
+        for block in blocks {
+            let (lo, hi) = block?;
             for i in 0..l {
-                let v = g.get(k, i).to_f64();
-                if v.is_nan() {
-                    if !nan_bin {
-                        return Err(EdmfError::invalid(
-                            "predictions",
-                            format!(
-                                "no NaN (got one at instance {k}, location {i}); pass nan_policy='bin' \
-                                 to give NaN predictions a bin of their own"
-                            ),
-                        ));
-                    }
-                    continue;
-                }
-                if v.is_infinite() {
-                    return Err(EdmfError::invalid(
-                        "predictions",
-                        format!("finite values, got {v} at instance {k}, location {i}"),
-                    ));
-                }
-                min[i] = min[i].min(v);
-                max[i] = max[i].max(v);
+                min[i] = min[i].min(lo[i]);
+                max[i] = max[i].max(hi[i]);
             }
         }
         let mut n_bins = vec![1.0; l];
@@ -128,6 +141,44 @@ impl Binning {
             ((v - self.min[i]) / self.width[i]).floor()
         }
     }
+}
+
+/// Minimum and maximum of each location over `rows` (NaN skipped when
+/// `nan_bin`); the first bad value, row after row, is the error.
+fn scan_rows<T: Prediction>(
+    g: Matrix<'_, T>,
+    rows: std::ops::Range<usize>,
+    nan_bin: bool,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let l = g.cols();
+    let mut min = vec![f64::INFINITY; l];
+    let mut max = vec![f64::NEG_INFINITY; l];
+    for k in rows {
+        for i in 0..l {
+            let v = g.get(k, i).to_f64();
+            if v.is_nan() {
+                if !nan_bin {
+                    return Err(EdmfError::invalid(
+                        "predictions",
+                        format!(
+                            "no NaN (got one at instance {k}, location {i}); pass nan_policy='bin' \
+                             to give NaN predictions a bin of their own"
+                        ),
+                    ));
+                }
+                continue;
+            }
+            if v.is_infinite() {
+                return Err(EdmfError::invalid(
+                    "predictions",
+                    format!("finite values, got {v} at instance {k}, location {i}"),
+                ));
+            }
+            min[i] = min[i].min(v);
+            max[i] = max[i].max(v);
+        }
+    }
+    Ok((min, max))
 }
 
 /// `floor((v - min) / w)` for a dense location, `nan` for NaN. `v - min >= 0`
@@ -183,151 +234,6 @@ pub(crate) fn relabel(keys: &[f64], out: &mut [u32]) {
         }
         out[idx[j] as usize] = label;
     }
-}
-
-/// Groups of instances that share a tuple of bins, singletons left out.
-#[derive(Debug, Clone)]
-pub struct Partition {
-    n: usize,
-    /// Members of the groups of two or more, group after group.
-    order: Vec<u32>,
-    /// Start of each group in `order`, plus the end.
-    starts: Vec<u32>,
-    /// The members in instance order (rows read forwards).
-    sorted: Vec<u32>,
-    /// `sum_t c_t log2 c_t` over the current tuples.
-    sum_clog: f64,
-}
-
-/// `c log2 c` for every count up to `n`: each count's term, computed once.
-pub(crate) fn clog_table(n: usize) -> Vec<f64> {
-    (0..=n)
-        .map(|c| if c < 2 { 0.0 } else { c as f64 * (c as f64).log2() })
-        .collect()
-}
-
-impl Partition {
-    /// The empty set of locations: all `n` instances in one group.
-    pub fn new(n: usize, clog: &[f64]) -> Self {
-        let (order, starts) = if n >= 2 {
-            ((0..n as u32).collect(), vec![0, n as u32])
-        } else {
-            (Vec::new(), vec![0])
-        };
-        Partition {
-            n,
-            sorted: order.clone(),
-            order,
-            starts,
-            sum_clog: clog[n],
-        }
-    }
-
-    /// H of the current set (Eq. 3 of Papadopoulou et al. 2014), in bits.
-    pub fn entropy(&self) -> f64 {
-        entropy_of(self.n, self.sum_clog)
-    }
-
-    /// Instances still sharing their tuple with another one.
-    pub fn n_confused(&self) -> usize {
-        self.order.len()
-    }
-
-    /// Those instances in increasing order: the only rows whose bins matter.
-    pub fn confused(&self) -> &[u32] {
-        &self.sorted
-    }
-
-    /// `sum_t c_t log2 c_t` after adding a location whose dense bins are
-    /// `bins`, without changing the partition. `count` must be zeros, of at
-    /// least the bin count; it is left zeroed. Each member's bin is read
-    /// once: the bins a group touches are listed as they first appear.
-    pub fn score(&self, bins: &[u32], count: &mut [u32], clog: &[f64]) -> f64 {
-        let mut acc = 0.0;
-        let mut touched: Vec<u32> = Vec::new();
-        for w in self.starts.windows(2) {
-            let members = &self.order[w[0] as usize..w[1] as usize];
-            if let [a, b] = members {
-                // A pair (the commonest group late on) stays together or splits.
-                if bins[*a as usize] == bins[*b as usize] {
-                    acc += clog[2];
-                }
-                continue;
-            }
-            touched.clear();
-            for &k in members {
-                let b = bins[k as usize];
-                let c = &mut count[b as usize];
-                if *c == 0 {
-                    touched.push(b);
-                }
-                *c += 1;
-            }
-            for &b in &touched {
-                acc += clog[count[b as usize] as usize];
-                count[b as usize] = 0;
-            }
-        }
-        acc
-    }
-
-    /// Splits every group by `bins` (the location is added to the set).
-    /// New groups are numbered by first appearance, then counting-sorted, so
-    /// the result depends on the inputs only.
-    pub fn refine(&mut self, bins: &[u32], map: &mut [u32], clog: &[f64]) {
-        let mut label = vec![0u32; self.order.len()];
-        let mut sizes: Vec<u32> = Vec::new();
-        for w in self.starts.windows(2) {
-            let (s, e) = (w[0] as usize, w[1] as usize);
-            for j in s..e {
-                let b = bins[self.order[j] as usize] as usize;
-                if map[b] == 0 {
-                    sizes.push(0);
-                    map[b] = sizes.len() as u32; // id + 1
-                }
-                let id = map[b] - 1;
-                label[j] = id;
-                sizes[id as usize] += 1;
-            }
-            for j in s..e {
-                map[bins[self.order[j] as usize] as usize] = 0;
-            }
-        }
-        // Counting sort of the members by new group, singletons dropped.
-        let mut offset = vec![0u32; sizes.len()];
-        let mut starts = vec![0u32];
-        let mut total = 0u32;
-        let mut sum = 0.0;
-        for (g, &size) in sizes.iter().enumerate() {
-            if size >= 2 {
-                offset[g] = total;
-                total += size;
-                starts.push(total);
-                sum += clog[size as usize];
-            }
-        }
-        let mut order = vec![0u32; total as usize];
-        for (j, &id) in label.iter().enumerate() {
-            if sizes[id as usize] >= 2 {
-                order[offset[id as usize] as usize] = self.order[j];
-                offset[id as usize] += 1;
-            }
-        }
-        self.sorted = order.clone();
-        self.sorted.sort_unstable();
-        self.order = order;
-        self.starts = starts;
-        self.sum_clog = sum;
-    }
-}
-
-/// `H = log2 N - (1/N) sum c log2 c`; exactly 0 for a single group.
-pub(crate) fn entropy_of(n: usize, sum_clog: f64) -> f64 {
-    if n < 2 {
-        return 0.0;
-    }
-    let h = (n as f64).log2() - sum_clog / n as f64;
-    h.max(0.0)
 }
 
 /// `H(S)` of the given locations (repeats allowed: they change nothing).
