@@ -88,18 +88,38 @@ impl CandidateSet {
         std::mem::take(&mut self.segments)
     }
 
-    /// All candidate indices from the `start`-th candidate on, ascending.
-    pub fn indices_from(&self, start: u64) -> Vec<u64> {
-        let mut out = Vec::with_capacity(self.count.saturating_sub(start) as usize);
-        let mut skip = start;
-        for s in &self.segments {
-            let n = s.count();
-            if skip >= n {
-                skip -= n;
-                continue;
+    /// The indices of the candidates at instance `since` or later,
+    /// ascending. Walks the segments from the end, so asking for the
+    /// latest instances costs only what they hold.
+    pub fn indices_since(&self, since: u64) -> Vec<u64> {
+        let mut parts: Vec<&Segment> = Vec::new();
+        let mut cut = None;
+        for s in self.segments.iter().rev() {
+            let whole = match s {
+                Segment::Indices(v) => v.first().is_some_and(|&i| i >= since),
+                Segment::Bits { first, .. } => *first >= since,
+            };
+            if !whole {
+                cut = Some(s);
+                break;
             }
-            s.indices_into(skip, &mut out);
-            skip = 0;
+            parts.push(s);
+        }
+        let mut out = Vec::new();
+        match cut {
+            Some(Segment::Indices(v)) => out.extend_from_slice(&v[v.partition_point(|&i| i < since)..]),
+            Some(Segment::Bits { first, rows, words }) if first + rows > since => {
+                let skip = since - first;
+                let (k, bit) = ((skip / 64) as usize, skip % 64);
+                let mut tail = words[k..].to_vec();
+                tail[0] &= !((1u64 << bit) - 1);
+                Segment::Bits { first: first + 64 * k as u64, rows: rows - 64 * k as u64, words: tail }
+                    .indices_into(0, &mut out);
+            }
+            _ => {}
+        }
+        for s in parts.into_iter().rev() {
+            s.indices_into(0, &mut out);
         }
         out
     }
@@ -250,14 +270,17 @@ mod tests {
                 first += rows;
             }
             assert_eq!(set.len(), want.len() as u64);
-            assert_eq!(set.indices_from(0), want);
-            assert_eq!(set.indices_from(17), want[17..]);
+            assert_eq!(set.indices_since(0), want);
+            for since in [1u64, 63, 64, 65, 1000, 4321, 8999, 9000, 12000] {
+                let tail: Vec<u64> = want.iter().copied().filter(|&i| i >= since).collect();
+                assert_eq!(set.indices_since(since), tail, "since {since}");
+            }
             assert!(set.segments().iter().any(|s| matches!(s, Segment::Bits { .. })));
             assert!(set.segments().iter().any(|s| matches!(s, Segment::Indices(_))));
             for cut in [8999u64, 4500, 2500, 1001, 64, 63, 0] {
                 set.truncate(cut);
                 let kept: Vec<u64> = want.iter().copied().filter(|&i| i < cut).collect();
-                assert_eq!(set.indices_from(0), kept, "cut {cut}");
+                assert_eq!(set.indices_since(0), kept, "cut {cut}");
                 assert_eq!(set.len(), kept.len() as u64);
             }
         }

@@ -143,10 +143,10 @@ impl Falsifier {
         self.candidates.len()
     }
 
-    /// Global indices of the candidates from the `start`-th on, ascending
-    /// (derived from the stored set: costs 8 bytes per index).
-    pub fn candidate_indices(&self, start: u64) -> Vec<u64> {
-        self.candidates.indices_from(start)
+    /// Global indices of the candidates at instance `since` or later,
+    /// ascending (derived from the stored set: 8 bytes per index).
+    pub fn candidates_since(&self, since: u64) -> Vec<u64> {
+        self.candidates.indices_since(since)
     }
 
     /// Takes the candidates, leaving the accumulator without them.

@@ -184,11 +184,11 @@ impl Falsifier {
         PyList::new(py, segments.collect::<PyResult<Vec<_>>>()?)
     }
 
-    /// Candidate indices from the `start`-th candidate on, ascending.
-    #[pyo3(signature = (start=0))]
-    fn candidates<'py>(&self, py: Python<'py>, start: u64) -> Vector<'py, u64> {
+    /// Indices of the candidates at instance `since` or later, ascending.
+    #[pyo3(signature = (since=0))]
+    fn candidates_since<'py>(&self, py: Python<'py>, since: u64) -> Vector<'py, u64> {
         let inner = &self.inner;
-        py.detach(|| inner.candidate_indices(start)).into_pyarray(py)
+        py.detach(|| inner.candidates_since(since)).into_pyarray(py)
     }
 
     /// `(per_sensor_falsified, falsified_only_by, n_invalid)`, or None when screening.
