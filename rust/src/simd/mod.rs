@@ -7,6 +7,7 @@
 
 pub mod avx2;
 pub mod avx512;
+pub mod periodic;
 pub mod short;
 pub mod short_avx2;
 
