@@ -121,6 +121,9 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
 fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Periodic<T>, &'a [T], usize)> {
     let data = m.packed_rows()?;
     Periodic::<T>::period(m.cols()).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
+    if !std::arch::is_x86_feature_detected!("bmi2") {
+        return None;
+    }
     // SAFETY: AVX-512F is enabled; `period` accepted the width.
     let kernel = unsafe { Periodic::<T>::new(b) };
     let whole = m.rows() - m.rows() % kernel.rows();
@@ -133,8 +136,10 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
         // SAFETY: AVX-512F and POPCNT are enabled; `data` holds the rows back to back.
         unsafe { kernel.diagnose(data, &mut out[..whole], t) };
         let rest = m.slice_rows(whole, m.rows());
-        // SAFETY: as below (the rest is packed rows too).
-        unsafe { ShortRows::<T>::new(b, true).diagnose(rest, &mut out[whole..], t) };
+        if rest.rows() > 0 {
+            // SAFETY: as below (the rest is packed rows too).
+            unsafe { ShortRows::<T>::new(b, true).diagnose(rest, &mut out[whole..], t) };
+        }
     } else if takes(&m) {
         // SAFETY: AVX-512F and POPCNT are enabled; `takes` checked the row
         // width and that rows are contiguous; packed only if back to back.
@@ -147,11 +152,14 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
 #[target_feature(enable = "avx512f,popcnt")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
     if let Some((kernel, data, whole)) = periodic(m, b) {
-        // SAFETY: AVX-512F is enabled; `data` holds the rows back to back.
+        // SAFETY: AVX-512F and BMI2 (checked by `periodic`) are enabled;
+        // `data` holds the rows back to back.
         unsafe { kernel.screen(data, &mut out[..whole]) };
         let rest = m.slice_rows(whole, m.rows());
-        // SAFETY: as below (the rest is packed rows too).
-        unsafe { ShortRows::<T>::new(b, true).screen(rest, &mut out[whole..]) };
+        if rest.rows() > 0 {
+            // SAFETY: as below (the rest is packed rows too).
+            unsafe { ShortRows::<T>::new(b, true).screen(rest, &mut out[whole..]) };
+        }
     } else if takes(&m) {
         // SAFETY: as in `diagnose`.
         unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, out) };
