@@ -11,6 +11,7 @@
 //! task that has just screened them, while they are still in that core's
 //! cache, instead of reading the whole chunk from memory again.
 
+use crate::candidates::{reserve, verdict_words, CandidateSet, Segment};
 use crate::digest::{self, Part, Pending, RowDigest, Value, PIECE_ROWS};
 use crate::error::{EdmfError, Result};
 use crate::kernel::{diagnose, screen, Prediction, ScreenPlan, SensorBounds, Tally};
@@ -48,10 +49,13 @@ pub struct Falsifier {
     keep_violations: bool,
     n_instances: u64,
     tally: Tally,
-    candidates: Vec<u64>,
+    candidates: CandidateSet,
     violations: Vec<u32>,
     /// Per-row verdicts of the current slab, reused from slab to slab.
     scratch: Vec<u32>,
+    /// Candidate bits of the current slab (`BLOCK_ROWS / 64` words a block),
+    /// written by each block's task while its verdicts are in L1.
+    slab_words: Vec<u64>,
     /// Candidates found by each block of the current slab.
     block_counts: Vec<usize>,
     /// Checksum sums of each block of the current slab (`update_digested`).
@@ -86,9 +90,10 @@ impl Falsifier {
             keep_violations,
             n_instances: 0,
             tally: Tally::zeros(n_m),
-            candidates: Vec::new(),
+            candidates: CandidateSet::new(),
             violations: Vec::new(),
             scratch: Vec::new(),
+            slab_words: Vec::new(),
             block_counts: Vec::new(),
             block_parts: Vec::new(),
         })
@@ -106,14 +111,25 @@ impl Falsifier {
         self.mode
     }
 
-    /// Global indices of the candidates so far, ascending.
-    pub fn candidates(&self) -> &[u64] {
+    /// The candidates so far (a bitmap where they are dense).
+    pub fn candidates(&self) -> &CandidateSet {
         &self.candidates
     }
 
-    /// Takes the candidate indices, leaving the accumulator without them.
-    pub fn take_candidates(&mut self) -> Vec<u64> {
-        std::mem::take(&mut self.candidates)
+    /// Number of candidates so far.
+    pub fn n_candidates(&self) -> u64 {
+        self.candidates.len()
+    }
+
+    /// Global indices of the candidates at instance `since` or later,
+    /// ascending (derived from the stored set: 8 bytes per index).
+    pub fn candidates_since(&self, since: u64) -> Vec<u64> {
+        self.candidates.indices_since(since)
+    }
+
+    /// Takes the candidates, leaving the accumulator without them.
+    pub fn take_candidates(&mut self) -> Vec<Segment> {
+        self.candidates.take()
     }
 
     /// Per-sensor diagnostics; `None` when screening (not every sensor is visited).
@@ -179,7 +195,7 @@ impl Falsifier {
             }
             None => None,
         };
-        let (kept_candidates, kept_violations) = (self.candidates.len(), self.violations.len());
+        let kept_violations = self.violations.len();
         match self.falsify_slabs(chunk, pool, stop, pending.as_mut()) {
             Ok(chunk_tally) => {
                 self.tally.add(&chunk_tally);
@@ -192,7 +208,7 @@ impl Falsifier {
             Err(e) => {
                 // Whatever stopped the chunk (Ctrl-C, out of memory), it leaves
                 // no trace: callers resume from the chunk's first row.
-                self.candidates.truncate(kept_candidates);
+                self.candidates.truncate(self.n_instances);
                 self.violations.truncate(kept_violations);
                 Err(e)
             }
@@ -228,6 +244,13 @@ impl Falsifier {
             let out = &mut self.scratch[..last - first];
             let n_blocks = out.len().div_ceil(BLOCK_ROWS);
             self.block_counts.resize(n_blocks, 0);
+            let n_words = out.len().div_ceil(64);
+            let have = self.slab_words.len();
+            if have < n_words {
+                reserve(&mut self.slab_words, n_words - have, "candidate bitmap")?;
+                self.slab_words.resize(n_words, 0);
+            }
+            let words = &mut self.slab_words[..n_words];
             self.block_parts.resize(n_blocks, Part::default());
             let counts = &mut self.block_counts[..];
             // Slabs start on block boundaries: block k of this slab is rows first + k * BLOCK_ROWS ..
@@ -236,19 +259,19 @@ impl Falsifier {
                 &mut self.block_parts[..n_blocks],
             );
             let base = self.n_instances + first as u64;
-            let (bounds, plan, candidates) = (&self.bounds, &self.screen_plan, &mut self.candidates);
+            let (bounds, plan) = (&self.bounds, &self.screen_plan);
+            let verdicts = (&mut *out, &mut *counts, &mut *words);
             // One hand-over to the pool per slab: waking it costs more than a
             // slab's scheduling inside it.
-            let tally = pool.install(|| {
-                let tally = match (self.mode, plan) {
-                    (Mode::Screen, Some(plan)) => {
-                        screen_parallel(slab, bounds, plan, out, counts, summing);
-                        None
-                    }
-                    _ => Some(diagnose_parallel(slab, bounds, out, counts, summing)),
-                };
-                collect_candidates(out, counts, base, candidates).map(|()| tally)
-            })?;
+            let tally = pool.install(|| match (self.mode, plan) {
+                (Mode::Screen, Some(plan)) => {
+                    screen_parallel(slab, bounds, plan, verdicts, summing);
+                    None
+                }
+                _ => Some(diagnose_parallel(slab, bounds, verdicts, summing)),
+            });
+            let found = counts.iter().sum::<usize>() as u64;
+            self.candidates.append(base, out.len() as u64, words, found)?;
             if let Some(p) = pending.as_deref_mut() {
                 for (k, part) in self.block_parts[..n_blocks].iter().enumerate() {
                     p.add(first + k * BLOCK_ROWS, part);
@@ -277,86 +300,33 @@ impl Falsifier {
     }
 }
 
-/// Appends `base + i` for every `out[i] == 0`, in order, in parallel: each
-/// block's count (taken by the kernel pass while the block was in L1) is
-/// prefix-summed, then each block writes its own slice of the spare capacity
-/// (not zero-filled first: with every instance a candidate, a sequential fill
-/// costs as much as a tenth of the kernel). Runs in the caller's pool.
-fn collect_candidates(out: &[u32], counts: &[usize], base: u64, candidates: &mut Vec<u64>) -> Result<()> {
-    let found = counts.iter().sum::<usize>();
-    reserve(candidates, found, "candidate indices")?;
-    let mut rest = &mut candidates.spare_capacity_mut()[..found];
-    let mut slices = Vec::with_capacity(counts.len());
-    for &c in counts {
-        let (head, tail) = rest.split_at_mut(c);
-        slices.push(head);
-        rest = tail;
-    }
-    out.par_chunks(BLOCK_ROWS)
-        .zip(slices)
-        .enumerate()
-        .for_each(|(k, (o, dst))| {
-            let first = base + (k * BLOCK_ROWS) as u64;
-            if dst.len() == o.len() {
-                // Every row a candidate (the worst case): a plain, vectorised fill.
-                for (i, d) in dst.iter_mut().enumerate() {
-                    d.write(first + i as u64);
-                }
-                return;
-            }
-            let found = o
-                .iter()
-                .enumerate()
-                .filter(|(_, &v)| v == 0)
-                .map(|(i, _)| first + i as u64);
-            let mut written = 0;
-            for (d, c) in dst.iter_mut().zip(found) {
-                d.write(c);
-                written += 1;
-            }
-            // The kernel pass counted them over the same block.
-            assert_eq!(written, dst.len(), "candidate count changed between passes");
-        });
-    // SAFETY: the `found` slots after the old length were all written above
-    // (each block filled its slice: whole, or asserted).
-    unsafe { candidates.set_len(candidates.len() + found) };
-    Ok(())
-}
-
-/// Candidates (rows with no rejecting sensor) in one block of verdicts.
-fn candidates_in(out: &[u32]) -> usize {
-    out.iter().filter(|&&v| v == 0).count()
-}
-
-/// Room for `more` elements, or an error (an allocation failure would abort
-/// the whole process, Python included).
-fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Result<()> {
-    v.try_reserve(more)
-        .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
-}
-
 /// When summing: the instance index of the slab's first row; and one slot
 /// per block of the slab for its checksum sums (left alone when not summing).
 type Summing<'b> = (Option<u64>, &'b mut [Part]);
+
+/// Per-row verdicts of a slab, each block's candidate count, and the slab's
+/// candidate bits (`BLOCK_ROWS / 64` words a block).
+type Verdicts<'a> = (&'a mut [u32], &'a mut [usize], &'a mut [u64]);
 
 /// Runs in the caller's pool; each block's candidate count into `counts`,
 /// and, when summing, the checksum sums of its rows into its slot.
 fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
-    out: &mut [u32],
-    counts: &mut [usize],
+    verdicts: Verdicts<'_>,
     summing: Summing<'_>,
 ) -> Tally {
     let n_m = b.len();
     let (sum_from, slots) = summing;
+    let (out, counts, words) = verdicts;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
+        .zip(words.par_chunks_mut(BLOCK_ROWS / 64))
         .zip(slots.par_iter_mut())
         .enumerate()
         .fold(
             || (Tally::zeros(n_m), Vec::new()),
-            |(mut t, mut buf), (k, ((o, count), slot))| {
+            |(mut t, mut buf), (k, (((o, count), w), slot))| {
                 let first = k * BLOCK_ROWS;
                 let rows = m.slice_rows(first, first + o.len());
                 match sum_from {
@@ -368,7 +338,7 @@ fn diagnose_parallel<T: Prediction + Value>(
                     }
                     None => diagnose(rows, b, o, &mut t),
                 }
-                *count = candidates_in(o);
+                *count = verdict_words(o, w);
                 (t, buf)
             },
         )
@@ -382,16 +352,17 @@ fn screen_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     plan: &ScreenPlan,
-    out: &mut [u32],
-    counts: &mut [usize],
+    verdicts: Verdicts<'_>,
     summing: Summing<'_>,
 ) {
     let (sum_from, slots) = summing;
+    let (out, counts, words) = verdicts;
     out.par_chunks_mut(BLOCK_ROWS)
         .zip(counts.par_iter_mut())
+        .zip(words.par_chunks_mut(BLOCK_ROWS / 64))
         .zip(slots.par_iter_mut())
         .enumerate()
-        .for_each_init(Vec::new, |buf, (k, ((o, count), slot))| {
+        .for_each_init(Vec::new, |buf, (k, (((o, count), w), slot))| {
             let first = k * BLOCK_ROWS;
             let rows = m.slice_rows(first, first + o.len());
             match sum_from {
@@ -403,7 +374,7 @@ fn screen_parallel<T: Prediction + Value>(
                 }
                 None => screen(rows, b, plan, o),
             }
-            *count = candidates_in(o);
+            *count = verdict_words(o, w);
         })
 }
 

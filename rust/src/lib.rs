@@ -12,6 +12,7 @@
 
 pub mod acceptance;
 pub mod bounds;
+pub mod candidates;
 pub mod design;
 pub mod digest;
 pub mod ellipse;

@@ -79,18 +79,19 @@ def test_ctrl_c_interrupts_a_long_falsification():
 
 
 def test_running_out_of_memory_is_a_memory_error_not_an_abort():
-    # Address space capped just above what is mapped: the 50M candidates
-    # (400 MB) cannot be kept. Rust must report it, not abort the interpreter.
+    # Address space capped just above what is mapped: the violation counts of
+    # 100M instances (400 MB) cannot be kept (the candidates would: a bitmap of
+    # 12.5 MB). Rust must report it, not abort the interpreter.
     code = """
         import resource, numpy as np, edmf_rs
         edmf_rs.set_num_threads(1)
-        p = np.zeros((50_000_000, 1), dtype=np.float32)
+        p = np.zeros((100_000_000, 1), dtype=np.float32)
         t = edmf_rs.Thresholds([-1.0], [1.0])
         edmf_rs.falsify(p[:10], [0.0], t)  # warm up: pool and code mapped
         used = int(open("/proc/self/statm").read().split()[0]) * resource.getpagesize()
         resource.setrlimit(resource.RLIMIT_AS, (used + 300 * 2**20, resource.RLIM_INFINITY))
         try:
-            edmf_rs.falsify(p, [0.0], t, keep_violations=False)
+            edmf_rs.falsify(p, [0.0], t, keep_violations=True)
         except MemoryError as exc:
             print("MemoryError:", exc)
     """

@@ -24,35 +24,35 @@ of ``falsify_model``). Rows re-read on resumption are checked by a separate
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from ..stream.checkpoint import Checkpoint, save_on_error
+from .candidate_set import CandidateSegments
 from .result import FalsificationResult
 from .thresholds import Thresholds
 
-
-def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds) -> FalsificationResult:
-    """Reads a finished ``_core.Falsifier`` into a :class:`FalsificationResult`."""
+def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds, **more) -> FalsificationResult:
+    """Reads a finished ``_core.Falsifier`` into a :class:`FalsificationResult`
+    (``more``: further fields, e.g. the candidates' parameters). The
+    candidates are moved out as the accumulator keeps them (a bitmap where
+    dense); their indices are formed only if ``candidate_indices`` is read."""
     tally = acc.tally()
     violations = acc.take_violations()
     return FalsificationResult(
         thresholds=thresholds,
         measurements=measurements,
         n_instances=int(acc.n_instances),
-        candidate_indices=readonly(acc.take_candidates().view(np.int64)),  # moved, indices < 2**63: no copy
+        candidate_indices=CandidateSegments(acc.take_candidate_segments()),
         per_sensor_falsified=None if tally is None else readonly(tally[0].astype(np.int64)),
         falsified_only_by=None if tally is None else readonly(tally[1].astype(np.int64)),
         n_invalid=None if tally is None else int(tally[2]),
         n_violated=None if violations is None else readonly(violations.view(np.int32)),
+        **more,
     )
-
 
 def readonly(arr: np.ndarray) -> np.ndarray:
     arr.flags.writeable = False
     return arr
-
 
 class Ephemeral:
     """A run that keeps nothing: starts at instance 0, never finished before."""
@@ -91,15 +91,14 @@ class Ephemeral:
                **extra) -> FalsificationResult:
         """The result read from ``acc``; ``kept``: the candidates' parameter and
         prediction rows, batch by batch (``falsify_model``)."""
-        result = from_accumulator(acc, measurements, thresholds)
         if kept is None:
-            return result
+            return from_accumulator(acc, measurements, thresholds)
         p = extra.get("n_parameters", 0)
         params = np.concatenate(kept["parameters"]) if kept["parameters"] else np.empty((0, p))
         preds = (np.concatenate(kept["predictions"]) if kept["predictions"]
                  else np.empty((0, measurements.shape[0])))
-        return replace(result, candidate_parameters=readonly(params), candidate_predictions=readonly(preds))
-
+        return from_accumulator(acc, measurements, thresholds, candidate_parameters=readonly(params),
+                                candidate_predictions=readonly(preds))
 
 class Durable:
     """A run saved in a checkpoint folder (see :mod:`edmf_rs.stream.checkpoint`).
@@ -177,13 +176,11 @@ class Durable:
         return FalsificationResult(thresholds=thresholds, measurements=measurements,
                                    **self._ckpt.saved(thresholds.n_sensors))
 
-
 def open_run(folder, fingerprint: dict, every: float, fields: tuple[str, ...] = (),
              input_name: str = "predictions", rereadable: bool = True) -> Ephemeral | Durable:
     """A :class:`Durable` run in ``folder``, or an :class:`Ephemeral` one when it is None."""
     if folder is None:
         return Ephemeral()
     return Durable(folder, fingerprint, every, fields, input_name, rereadable)
-
 
 __all__ = ["Durable", "Ephemeral", "from_accumulator", "open_run", "readonly"]

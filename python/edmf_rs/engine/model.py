@@ -261,9 +261,8 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         def falsify_batch(params: np.ndarray, preds: np.ndarray, offset: int) -> None:
             # Runs on the worker thread, which signals never interrupt: the
             # accumulator, the kept rows and the run's record move together.
-            seen = acc.n_candidates
             acc.update(preds)
-            local = acc.candidates(seen).astype(np.int64) - offset
+            local = acc.candidates_since(offset).astype(np.int64) - offset
             kept["parameters"].append(params[local])
             kept["predictions"].append(preds[local])
             run.done(start + offset, params)

@@ -7,6 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .candidate_set import CandidateSegments, LazyIndices
 from .thresholds import Thresholds
 
 
@@ -65,7 +66,8 @@ class FalsificationResult:
     thresholds: Thresholds
     measurements: np.ndarray
     n_instances: int
-    candidate_indices: np.ndarray
+    # Given an array or the accumulator's `CandidateSegments` (derived on first read).
+    candidate_indices: np.ndarray = LazyIndices()
     per_sensor_falsified: np.ndarray | None = None
     falsified_only_by: np.ndarray | None = None
     n_invalid: int | None = None
@@ -79,7 +81,8 @@ class FalsificationResult:
 
     @property
     def n_candidates(self) -> int:
-        return int(self.candidate_indices.shape[0])
+        raw = LazyIndices.raw(self)
+        return raw.count if isinstance(raw, CandidateSegments) else int(raw.shape[0])
 
     @property
     def model_class_falsified(self) -> bool:
@@ -88,6 +91,9 @@ class FalsificationResult:
 
     @cached_property
     def candidate_mask(self) -> np.ndarray:
+        raw = LazyIndices.raw(self)
+        if isinstance(raw, CandidateSegments):
+            return raw.mask(self.n_instances)  # from the bits, without forming the indices
         mask = np.zeros(self.n_instances, dtype=bool)
         mask[self.candidate_indices] = True
         mask.flags.writeable = False

@@ -3,7 +3,7 @@
 Like :func:`edmf_rs.falsify_model` (Python evaluates the model on batch k+1
 while the Rust core falsifies batch k on its own threads, the GIL released),
 but the candidates are not kept: after each batch the accumulator hands its
-candidate indices over (``take_candidates``) and they go, with their
+candidates over (``take_candidate_segments``) and they go, with their
 parameters and predictions, to a ``sink`` (the
 :class:`~edmf_rs.project.candidates.CandidateWriter` and the prognoses), on
 the main thread while the Rust core falsifies the next batch. What stays in
@@ -19,6 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from .. import _core
+from ..engine.candidate_set import CandidateSegments
 from ..engine.durable import from_accumulator, readonly
 from ..engine.model import evaluate
 from ..engine.result import FalsificationResult
@@ -83,7 +84,7 @@ def falsify_streaming(model: Callable, batches: Iterable[np.ndarray], measured: 
     def falsify_batch(offset: int, params: np.ndarray, preds: np.ndarray):
         # The worker thread: falsify, then move this batch's candidates out of the accumulator.
         acc.update(preds)
-        found = acc.take_candidates().view(np.int64)
+        found = CandidateSegments(acc.take_candidate_segments()).indices()
         local = found - offset
         return found, params[local], preds[local]
 

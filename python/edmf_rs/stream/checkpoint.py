@@ -159,7 +159,6 @@ class Checkpoint:
         self.rows = _core.RowDigest()  # fed every instance from 0: those done again on resumption
         # Instances and tally before this session's accumulator started.
         self.base, self._base_tally = self.n_done, self.tally
-        self._seen = 0  # the accumulator's candidates already written
         self._last = time.monotonic()
         self.broken = False
 
@@ -340,7 +339,8 @@ class Checkpoint:
         files: dict[str, np.ndarray] = {}
         new_parts = list(self.parts)
         if n_done > self.n_done:
-            files["candidates"] = acc.candidates(self._seen).astype(np.int64) + self.base
+            # The accumulator's instances since the last save (it started at `base`).
+            files["candidates"] = acc.candidates_since(self.n_done - self.base).astype(np.int64) + self.base
             if "n_violated" in self.fields:
                 files["n_violated"] = acc.take_violations().view(np.int32)
             for name, rows in arrays.items():
@@ -386,7 +386,6 @@ class Checkpoint:
             ) from exc
         for rows in arrays.values():
             rows.clear()
-        self._seen += len(files.get("candidates", ()))
         self.n_done, self.parts, self.tally, self.complete = n_done, new_parts, tally, final
         self.was_rereadable = state["rereadable"]
         self._pending = state["pending"]

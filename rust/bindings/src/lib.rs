@@ -11,10 +11,12 @@ mod pool;
 mod screening;
 mod views;
 
+use edmf_core::candidates::Segment;
 use edmf_core::{EdmfError, Mode, Thresholds};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyList;
 use views::matrix_view;
 
 /// A NumPy vector handed back to Python.
@@ -163,20 +165,30 @@ impl Falsifier {
     }
 
     #[getter]
-    fn n_candidates(&self) -> usize {
-        self.inner.candidates().len()
+    fn n_candidates(&self) -> u64 {
+        self.inner.n_candidates()
     }
 
-    /// All candidate indices, moved out (no copy); the accumulator keeps none.
-    fn take_candidates<'py>(&mut self, py: Python<'py>) -> Vector<'py, u64> {
-        self.inner.take_candidates().into_pyarray(py)
+    /// The candidates, moved out (no copy; the accumulator keeps none), as a
+    /// list of segments in instance order: a uint64 array of candidate
+    /// indices, or `(first, rows, words)` for a bitmap of instances
+    /// `first .. first + rows` (bit `i % 64` of `words[i // 64]` set iff
+    /// instance `first + i` is a candidate).
+    fn take_candidate_segments<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let segments = self.inner.take_candidates().into_iter().map(|s| -> PyResult<Bound<'py, PyAny>> {
+            Ok(match s {
+                Segment::Indices(v) => v.into_pyarray(py).into_any(),
+                Segment::Bits { first, rows, words } => (first, rows, words.into_pyarray(py)).into_pyobject(py)?.into_any(),
+            })
+        });
+        PyList::new(py, segments.collect::<PyResult<Vec<_>>>()?)
     }
 
-    /// Candidate indices from position `start` of the candidate list on.
-    #[pyo3(signature = (start=0))]
-    fn candidates<'py>(&self, py: Python<'py>, start: usize) -> Vector<'py, u64> {
-        let all = self.inner.candidates();
-        all[start.min(all.len())..].to_vec().into_pyarray(py)
+    /// Indices of the candidates at instance `since` or later, ascending.
+    #[pyo3(signature = (since=0))]
+    fn candidates_since<'py>(&self, py: Python<'py>, since: u64) -> Vector<'py, u64> {
+        let inner = &self.inner;
+        py.detach(|| inner.candidates_since(since)).into_pyarray(py)
     }
 
     /// `(per_sensor_falsified, falsified_only_by, n_invalid)`, or None when screening.

@@ -2,6 +2,7 @@
 //! sixteen) with the acceptance intervals, straight into mask registers; the
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
+use super::periodic::Periodic;
 use super::short::{takes, ShortRows};
 use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
@@ -113,9 +114,33 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
     }
 }
 
+/// The rows of `m` that the periodic kernel takes (whole periods of rows
+/// stored back to back), their values and the kernel; the rest of `m` after them.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Periodic<T>, &'a [T], usize)> {
+    let data = m.packed_rows()?;
+    Periodic::<T>::period(m.cols()).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
+    if !std::arch::is_x86_feature_detected!("bmi2") {
+        return None;
+    }
+    // SAFETY: AVX-512F is enabled; `period` accepted the width.
+    let kernel = unsafe { Periodic::<T>::new(b) };
+    let whole = m.rows() - m.rows() % kernel.rows();
+    Some((kernel, data, whole))
+}
+
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
-    if takes(&m) {
+    if let Some((kernel, data, whole)) = periodic(m, b) {
+        // SAFETY: AVX-512F and POPCNT are enabled; `data` holds the rows back to back.
+        unsafe { kernel.diagnose(data, &mut out[..whole], t) };
+        let rest = m.slice_rows(whole, m.rows());
+        if rest.rows() > 0 {
+            // SAFETY: as below (the rest is packed rows too).
+            unsafe { ShortRows::<T>::new(b, true).diagnose(rest, &mut out[whole..], t) };
+        }
+    } else if takes(&m) {
         // SAFETY: AVX-512F and POPCNT are enabled; `takes` checked the row
         // width and that rows are contiguous; packed only if back to back.
         unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).diagnose(m, out, t) };
@@ -126,7 +151,16 @@ pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u3
 
 #[target_feature(enable = "avx512f,popcnt")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
-    if takes(&m) {
+    if let Some((kernel, data, whole)) = periodic(m, b) {
+        // SAFETY: AVX-512F and BMI2 (checked by `periodic`) are enabled;
+        // `data` holds the rows back to back.
+        unsafe { kernel.screen(data, &mut out[..whole]) };
+        let rest = m.slice_rows(whole, m.rows());
+        if rest.rows() > 0 {
+            // SAFETY: as below (the rest is packed rows too).
+            unsafe { ShortRows::<T>::new(b, true).screen(rest, &mut out[whole..]) };
+        }
+    } else if takes(&m) {
         // SAFETY: as in `diagnose`.
         unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, out) };
     } else {

@@ -1,0 +1,223 @@
+//! AVX-512 kernel for short rows stored back to back, read as a plain stream
+//! of whole vectors: rows of `k` sensors repeat their sensor pattern every
+//! `lcm(k, W)` values, i.e. every `P = lcm(k, W) / W` vectors holding
+//! `R = lcm(k, W) / k` rows. The acceptance intervals are laid out once in
+//! that pattern (`P` vectors), so a period costs `P` full loads and `2P`
+//! comparisons, with no masked load, no permutation and no row straddling
+//! a vector to care about; the `P` verdict masks are one `P * W`-bit string
+//! (at most 128 bits) in which row `r` owns bits `r*k .. r*k + k`.
+//!
+//! Why: with one load per row (the `ShortRows` layouts for rows of 5-10
+//! f32), the cost per row, not the bytes read, sets the pace, and f32 rows
+//! ran at half the speed of f64 rows per byte. Here the loads per row are
+//! `k / W` of a vector, whatever `k`.
+//!
+//! - Screening: a row is rejected iff its field has a bit set, for all `R`
+//!   rows at once by a carry trick (add the field's low bits to themselves:
+//!   the carry reaches the field's top bit iff one of them is set).
+//! - Diagnostics: the field's popcount is the row's violation count; the
+//!   per-sensor counts are masked adds of the `P` masks (lane `l` of vector
+//!   `v` is sensor `(v*W + l) % k`), "falsified only by" the same for the
+//!   fields with exactly one bit; NaN rows are counted only in the rare
+//!   periods holding a NaN.
+//!
+//! Rows after the last whole period (fewer than `R`) go to the caller.
+
+use crate::kernel::{Prediction, SensorBounds, Tally};
+use std::arch::x86_64::*;
+
+/// Most vectors in a period (the pattern's registers: two per vector).
+const MAX_VECTORS: usize = 8;
+
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+/// The acceptance intervals of rows of `k` sensors in their period's pattern.
+pub struct Periodic<T: Prediction> {
+    low: [T::V512; MAX_VECTORS],
+    high: [T::V512; MAX_VECTORS],
+    k: usize,
+    /// Vectors per period.
+    vectors: usize,
+    /// Rows per period.
+    rows: usize,
+    /// Per field: every bit but the top one (screening's carry trick).
+    low_bits: u128,
+    /// Per field: the top bit.
+    top_bits: u128,
+}
+
+impl<T: Prediction> Periodic<T> {
+    /// `(vectors, rows)` of the period of rows of `k` sensors, if this kernel
+    /// takes them: more than one row per period (else `ShortRows` reads a row
+    /// as whole vectors already) and at most `MAX_VECTORS` vectors.
+    pub fn period(k: usize) -> Option<(usize, usize)> {
+        let w = T::W512;
+        if k == 0 || k % w == 0 {
+            return None;
+        }
+        let lcm = k / gcd(k, w) * w;
+        // lcm <= 128 bits of verdicts; then k < 64 (k is not a multiple of W).
+        (lcm / w <= MAX_VECTORS && lcm <= 128 && k < 64).then_some((lcm / w, lcm / k))
+    }
+
+    /// The pattern for `b` (rows of `b.len()` sensors).
+    ///
+    /// # Safety
+    /// AVX-512F is available; `Self::period(b.len())` is `Some`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn new(b: &SensorBounds) -> Self {
+        let (k, w, accept) = (b.len(), T::W512, T::accepted(b));
+        let (vectors, rows) = Self::period(k).expect("a period this kernel takes");
+        let full = (u32::MAX >> (32 - w)) as u32;
+        // Built once per block of rows: no allocation, no division (a
+        // division per lane cost 2 cycles per row of 5 f32).
+        let (mut low, mut high) = ([T::load512(full, accept[0].as_ptr()); MAX_VECTORS], [T::load512(full, accept[1].as_ptr()); MAX_VECTORS]);
+        let (mut lo, mut hi) = ([accept[0][0]; 16], [accept[1][0]; 16]);
+        let mut j = 0; // sensor of the lane: (v * w + l) % k
+        for v in 0..vectors {
+            for l in 0..w {
+                (lo[l], hi[l]) = (accept[0][j], accept[1][j]);
+                j = if j + 1 == k { 0 } else { j + 1 };
+            }
+            low[v] = T::load512(full, lo.as_ptr());
+            high[v] = T::load512(full, hi.as_ptr());
+        }
+        let (mut low_bits, mut top_bits) = (0u128, 0u128);
+        for r in 0..rows {
+            low_bits |= ((1u128 << (k - 1)) - 1) << (r * k);
+            top_bits |= 1u128 << (r * k + k - 1);
+        }
+        Periodic { low, high, k, vectors, rows, low_bits, top_bits }
+    }
+
+    /// Rows per period: the caller hands the rows after the last whole period elsewhere.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Rejecting lanes and NaN lanes of the period starting at `p`, one bit
+    /// per value (bit `v*W + l` for lane `l` of vector `v`).
+    ///
+    /// # Safety
+    /// AVX-512F is available; `p` points to `rows * k` readable values.
+    #[inline(always)]
+    unsafe fn period_bits<const NAN: bool>(&self, p: *const T) -> (u128, u128) {
+        let w = T::W512;
+        let full = u32::MAX >> (32 - w);
+        let (mut out, mut nan) = (0u128, 0u128);
+        for v in 0..self.vectors {
+            let x = T::load512(full, p.add(v * w));
+            let inside = T::inside512(full, x, self.low[v], self.high[v]);
+            out |= ((!inside & full) as u128) << (v * w);
+            if NAN {
+                nan |= (T::nan512(full, x) as u128) << (v * w);
+            }
+        }
+        (out, nan)
+    }
+
+    /// Writes the verdict (1 falsified, 0 candidate) of the first
+    /// `periods * rows` rows of `data` to `out`.
+    ///
+    /// # Safety
+    /// AVX-512F and BMI2 are available; `data` holds those rows back to
+    /// back, `out` one value per row.
+    #[inline]
+    #[target_feature(enable = "avx512f,bmi2")]
+    pub unsafe fn screen(&self, data: &[T], out: &mut [u32]) {
+        let (k, rows) = (self.k, self.rows);
+        assert!(data.len() >= out.len() * k && out.len() % rows == 0);
+        let (top_lo, top_hi) = (self.top_bits as u64, (self.top_bits >> 64) as u64);
+        let lo_rows = top_lo.count_ones();
+        for (q, o) in out.chunks_exact_mut(rows).enumerate() {
+            let (bits, _) = self.period_bits::<false>(data.as_ptr().add(q * rows * k));
+            // Top bit of each field set iff any bit of the field is.
+            let rejected = (((bits & self.low_bits) + self.low_bits) | bits) & self.top_bits;
+            // One bit per row (bit r: row r), gathered from the fields' top bits.
+            let verdicts = _pext_u64(rejected as u64, top_lo) as u32
+                | (_pext_u64((rejected >> 64) as u64, top_hi) as u32).wrapping_shl(lo_rows);
+            for (r, v) in o.iter_mut().enumerate() {
+                *v = (verdicts >> r) & 1;
+            }
+        }
+    }
+
+    /// Writes the rejecting-sensor count of the first `periods * rows` rows
+    /// of `data` to `out` and adds their diagnostics to `t`.
+    ///
+    /// # Safety
+    /// As [`Self::screen`]; `t` has `k` sensors.
+    #[inline]
+    #[target_feature(enable = "avx512f,popcnt")]
+    pub unsafe fn diagnose(&self, data: &[T], out: &mut [u32], t: &mut Tally) {
+        let (k, rows, w) = (self.k, self.rows, T::W512);
+        assert!(data.len() >= out.len() * k && out.len() % rows == 0 && t.per_sensor.len() == k);
+        let field = (1u64 << k) - 1; // k < 64 (`period`)
+        let ones = _mm512_set1_epi32(1);
+        let zero = _mm512_setzero_si512();
+        let (mut per_lane, mut only_lane) = ([zero; MAX_VECTORS], [zero; MAX_VECTORS]);
+        let mut invalid = 0u64;
+        for (q, o) in out.chunks_exact_mut(rows).enumerate() {
+            let (bits, nan) = self.period_bits::<true>(data.as_ptr().add(q * rows * k));
+            if bits == 0 {
+                // Every row a candidate (no NaN either: NaN rejects): no diagnostic work.
+                o.fill(0);
+                continue;
+            }
+            let mut single = 0u128;
+            for (r, v) in o.iter_mut().enumerate() {
+                let f = (bits >> (r * k)) as u64 & field;
+                let count = f.count_ones();
+                *v = count;
+                // The one rejecting sensor's bit, for rows rejected by one only.
+                single |= ((f & ((count == 1) as u64).wrapping_neg()) as u128) << (r * k);
+            }
+            if nan != 0 {
+                // Rare: a NaN row is never a candidate, counted once.
+                invalid += (0..rows).filter(|r| (nan >> (r * k)) as u64 & field != 0).count() as u64;
+            }
+            for v in 0..self.vectors {
+                let (b, s) = ((bits >> (v * w)) as __mmask16, (single >> (v * w)) as __mmask16);
+                per_lane[v] = _mm512_mask_add_epi32(per_lane[v], b, per_lane[v], ones);
+                only_lane[v] = _mm512_mask_add_epi32(only_lane[v], s, only_lane[v], ones);
+            }
+        }
+        let mut lanes = [0u32; 16];
+        for v in 0..self.vectors {
+            for (counts, acc) in [(&mut t.per_sensor, per_lane[v]), (&mut t.only_by, only_lane[v])] {
+                _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, acc);
+                for (l, &c) in lanes.iter().enumerate().take(w) {
+                    counts[(v * w + l) % k] += c as u64;
+                }
+            }
+        }
+        t.invalid += invalid;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn periods_of_short_rows() {
+        // (vectors, rows): rows of 5 and 10 sensors, f32 and f64.
+        assert_eq!(Periodic::<f32>::period(5), Some((5, 16)));
+        assert_eq!(Periodic::<f32>::period(10), Some((5, 8)));
+        assert_eq!(Periodic::<f64>::period(5), Some((5, 8)));
+        assert_eq!(Periodic::<f64>::period(10), Some((5, 4)));
+        assert_eq!(Periodic::<f64>::period(3), Some((3, 8)));
+        // Whole vectors per row, or a period too long: other kernels.
+        assert_eq!(Periodic::<f64>::period(16), None);
+        assert_eq!(Periodic::<f32>::period(16), None);
+        assert_eq!(Periodic::<f64>::period(9), None);
+        assert_eq!(Periodic::<f32>::period(9), None);
+    }
+}
