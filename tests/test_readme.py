@@ -65,3 +65,15 @@ def test_the_performance_summary_is_the_benchmark_file():
     assert (f"takes {min(ms)}-{max(ms)} ms on 2 threads: {min(numpy_x)}-{max(numpy_x)}× the plain NumPy reference"
             in text)
     assert f"and {min(rule_x)}-{max(rule_x)}× the leanest NumPy rule" in text
+
+
+def test_the_memory_numbers_are_the_benchmark_file():
+    """The README's bounded-memory claim is the largest row of benches/results-memory.txt."""
+    rows = [line.split() for line in (README.parent / "benches" / "results-memory.txt").read_text().splitlines()
+            if re.match(r"\s+[\d,]+\s+[\d,]+\s+[\d.]+\s", line)]
+    largest = max(rows, key=lambda r: int(r[0].replace(",", "")))
+    n, candidates, peak = int(largest[0].replace(",", "")), int(largest[1].replace(",", "")), float(largest[2])
+    assert n == 2**23
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    assert (f"the cantilever with 2^23 Sobol' instances and {candidates / 1e6:.1f} million candidates peaks at "
+            f"{peak:.0f} MB") in text
