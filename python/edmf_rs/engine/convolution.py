@@ -227,7 +227,11 @@ def _shortest(edges, cdf, nodes, density, p):
     alpha = np.where(cdf <= 1.0 - p, cdf, np.nan)
     width = quantile(np.minimum(alpha + p, 1.0)) - edges
     width[np.isnan(alpha)] = np.inf
-    best = np.argmin(width, axis=1)
+    # A flat-topped U_c (e.g. a narrow source plus a wide uniform) has a whole range of shortest windows:
+    # take the most central of them (closest to equal tails), so that the bounds found on successive
+    # grids agree and the convergence error measures accuracy, not an arbitrary choice among equals.
+    near = width <= np.min(width, axis=1, keepdims=True) * (1.0 + 1e-9)
+    best = np.argmin(np.where(near, np.abs(alpha - 0.5 * (1.0 - p)), np.inf), axis=1)
     rows = np.arange(cdf.shape[0])
     last = np.maximum(np.sum(np.isfinite(width), axis=1) - 1, 0)
     a_lo = cdf[rows, np.maximum(best - 2, 0)]
