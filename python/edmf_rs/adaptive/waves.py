@@ -32,7 +32,7 @@ from ..engine.falsify import falsify
 from ..engine.model import evaluate
 from ..engine.sampling import Parameter
 from ..engine.thresholds import Thresholds
-from .design import RunStore, extremes, farthest_points, sobol_points
+from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
 from .basis import VARIANCE_KEPT, emulators
 from .emulator import EmulatorError
 from .result import AdaptiveResult, WaveRecord
@@ -40,6 +40,15 @@ from .screen import required_margin, screen
 
 #: Kept points recorded per wave for plots.
 KEPT_SAMPLE = 400
+
+#: Kept points taken at each end of each parameter's range in every wave
+#: (then pushed to the mean's Eq. 8 boundary along that parameter): the
+#: candidate ranges are decided at these edges, and a thin kept region reaches
+#: its extreme at a corner that one point, or space-filling, finds slowly.
+EDGE_POINTS = 3
+
+#: Walk the edge points to the extreme of their parameter (:func:`_walk`).
+WALK = True
 
 #: With ``basis = "auto"``, more sensors than this are emulated on principal components.
 PCA_SENSORS = 10
@@ -352,8 +361,8 @@ def _n_candidates(g: np.ndarray, y: np.ndarray, t: Thresholds) -> int:
 def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_kept: np.ndarray,
             runs: np.ndarray, k: int, mean_passes: Callable | None = None) -> np.ndarray:
     """k points of the kept region: where the emulator's mean passes Eq. 8 (or,
-    if nowhere, over the kept region), the ends of each parameter's range
-    (pushed along that parameter's axis to where the mean stops passing, by
+    if nowhere, over the kept region), the ``EDGE_POINTS`` lowest and highest
+    points of each parameter's range (each pushed along that parameter's axis to where the mean stops passing, by
     bisection: the screening sample alone resolves them only to its spacing)
     and of each sensor's predicted range (a quantity of interest usually
     follows some sensor, so its prognosis interval ends near theirs), then
@@ -363,13 +372,12 @@ def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_k
     if at.size == 0:
         at = np.arange(kept.size)
     region = screening[kept[at]]
-    p = region.shape[1]
-    lows, highs = region.argmin(axis=0), region.argmax(axis=0)
-    ends = np.vstack([region[lows], region[highs]])
+    # The EDGE_POINTS lowest and highest kept points of each parameter, each
+    # pushed outwards along that parameter (repeats are dropped by farthest_points).
+    edge, axes, signs = edge_rows(region, EDGE_POINTS)
+    ends = region[edge]
     if mean_passes is not None and mean_kept.size:
-        axes = np.concatenate([np.arange(p), np.arange(p)])
-        signs = np.concatenate([-np.ones(p), np.ones(p)])
-        ends = _push(ends, axes, signs, mean_passes)
+        ends = _walk(ends, axes, signs, mean_passes) if WALK else _push(ends, axes, signs, mean_passes)
     sensor_ends = at[extremes(mu_kept[at])]
     pool = np.vstack([ends, screening[kept]])
     first = np.concatenate([np.arange(ends.shape[0]), ends.shape[0] + sensor_ends])
@@ -398,6 +406,45 @@ def _push(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Calla
         good = np.where(ok, mid, good)
         bad = np.where(ok | at_edge, bad, mid)
     return moved(good)
+
+
+def _walk(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callable,
+          deltas: tuple[float, ...] = (0.2, 0.1, 0.05, 0.02), retreat: int = 16) -> np.ndarray:
+    """The extreme of each point's parameter (``axes``, direction ``signs``)
+    over the region where ``passes`` holds, by a pattern search: push along the
+    parameter (:func:`_push`); then, for steps ``deltas`` and every other
+    parameter both ways, move sideways, step back along the parameter to the
+    first passing position if the move left the region (``retreat`` tries up to
+    the step's length... up to 0.5), push again, and keep the move if the
+    parameter went further. A thin, slanted kept region reaches its extreme in
+    one parameter at a corner (e.g. another parameter at its bound) that an
+    axis push from a screening point does not reach; the candidate ranges are
+    decided there. Deterministic; only the emulator's mean is evaluated."""
+    n, p = points.shape
+    rows = np.arange(n)
+    best = _push(points, axes, signs, passes)
+    score = signs * best[rows, axes]
+    back = np.linspace(0.0, 0.5, retreat)
+    for delta in deltas:
+        for k in range(p):
+            for direction in (-1.0, 1.0):
+                trial = best.copy()
+                trial[:, k] = np.clip(trial[:, k] + direction * delta, 0.0, 1.0)
+                tries = np.repeat(trial[None], back.size, axis=0)  # (retreat, n, p)
+                tries[:, rows, axes] = np.clip(trial[rows, axes][None] - signs[None] * back[:, None], 0.0, 1.0)
+                ok = passes(tries.reshape(-1, p)).reshape(back.size, n)
+                found = ok.any(axis=0) & (axes != k)
+                if not found.any():
+                    continue
+                start = tries[ok.argmax(axis=0), rows]
+                pushed = _push(start[found], axes[found], signs[found], passes)
+                better = np.zeros(n, bool)
+                better[found] = signs[found] * pushed[np.arange(found.sum()), axes[found]] > score[found] + 1e-9
+                sel = np.flatnonzero(found)
+                take = better[found]
+                best[sel[take]] = pushed[take]
+                score = signs * best[rows, axes]
+    return best
 
 
 def _closest(screening: np.ndarray, need: np.ndarray, runs: np.ndarray, k: int) -> np.ndarray:
