@@ -34,6 +34,7 @@ from ..engine.sampling import Parameter
 from ..engine.thresholds import Thresholds
 from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
 from .basis import VARIANCE_KEPT, emulators
+from .edges import push, walk
 from .emulator import EmulatorError
 from .result import AdaptiveResult, WaveRecord
 from .screen import required_margin, screen
@@ -47,7 +48,7 @@ KEPT_SAMPLE = 400
 #: its extreme at a corner that one point, or space-filling, finds slowly.
 EDGE_POINTS = 3
 
-#: Walk the edge points to the extreme of their parameter (:func:`_walk`).
+#: Walk the edge points to the extreme of their parameter (:func:`edmf_rs.adaptive.edges.walk`).
 WALK = True
 
 #: With ``basis = "auto"``, more sensors than this are emulated on principal components.
@@ -377,74 +378,12 @@ def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_k
     edge, axes, signs = edge_rows(region, EDGE_POINTS)
     ends = region[edge]
     if mean_passes is not None and mean_kept.size:
-        ends = _walk(ends, axes, signs, mean_passes) if WALK else _push(ends, axes, signs, mean_passes)
+        ends = walk(ends, axes, signs, mean_passes) if WALK else push(ends, axes, signs, mean_passes)
     sensor_ends = at[extremes(mu_kept[at])]
     pool = np.vstack([ends, screening[kept]])
     first = np.concatenate([np.arange(ends.shape[0]), ends.shape[0] + sensor_ends])
     picked = farthest_points(pool, runs, k, first=first)
     return pool[picked]
-
-
-def _push(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callable, steps: int = 24) -> np.ndarray:
-    """Moves each point along its axis (direction ``sign``) as far as ``passes``
-    stays true, by bisection between where it holds (the start) and the
-    domain's edge; returns the last passing positions."""
-    rows = np.arange(points.shape[0])
-    room = np.where(signs > 0, 1.0 - points[rows, axes], points[rows, axes])
-    good, bad = np.zeros(len(rows)), room.copy()
-
-    def moved(t):
-        out = points.copy()
-        out[rows, axes] += signs * t
-        return np.clip(out, 0.0, 1.0)
-
-    at_edge = passes(moved(room))
-    good[at_edge] = room[at_edge]
-    for _ in range(steps):
-        mid = 0.5 * (good + bad)
-        ok = passes(moved(mid)) & ~at_edge
-        good = np.where(ok, mid, good)
-        bad = np.where(ok | at_edge, bad, mid)
-    return moved(good)
-
-
-def _walk(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callable,
-          deltas: tuple[float, ...] = (0.2, 0.1, 0.05, 0.02), retreat: int = 16) -> np.ndarray:
-    """The extreme of each point's parameter (``axes``, direction ``signs``)
-    over the region where ``passes`` holds, by a pattern search: push along the
-    parameter (:func:`_push`); then, for steps ``deltas`` and every other
-    parameter both ways, move sideways, step back along the parameter to the
-    first passing position if the move left the region (``retreat`` tries up to
-    the step's length... up to 0.5), push again, and keep the move if the
-    parameter went further. A thin, slanted kept region reaches its extreme in
-    one parameter at a corner (e.g. another parameter at its bound) that an
-    axis push from a screening point does not reach; the candidate ranges are
-    decided there. Deterministic; only the emulator's mean is evaluated."""
-    n, p = points.shape
-    rows = np.arange(n)
-    best = _push(points, axes, signs, passes)
-    score = signs * best[rows, axes]
-    back = np.linspace(0.0, 0.5, retreat)
-    for delta in deltas:
-        for k in range(p):
-            for direction in (-1.0, 1.0):
-                trial = best.copy()
-                trial[:, k] = np.clip(trial[:, k] + direction * delta, 0.0, 1.0)
-                tries = np.repeat(trial[None], back.size, axis=0)  # (retreat, n, p)
-                tries[:, rows, axes] = np.clip(trial[rows, axes][None] - signs[None] * back[:, None], 0.0, 1.0)
-                ok = passes(tries.reshape(-1, p)).reshape(back.size, n)
-                found = ok.any(axis=0) & (axes != k)
-                if not found.any():
-                    continue
-                start = tries[ok.argmax(axis=0), rows]
-                pushed = _push(start[found], axes[found], signs[found], passes)
-                better = np.zeros(n, bool)
-                better[found] = signs[found] * pushed[np.arange(found.sum()), axes[found]] > score[found] + 1e-9
-                sel = np.flatnonzero(found)
-                take = better[found]
-                best[sel[take]] = pushed[take]
-                score = signs * best[rows, axes]
-    return best
 
 
 def _closest(screening: np.ndarray, need: np.ndarray, runs: np.ndarray, k: int) -> np.ndarray:
