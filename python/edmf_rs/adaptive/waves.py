@@ -6,9 +6,11 @@
    around the kept ones, to resolve a small region) is screened (:mod:`.screen`, Rust):
    a point stays while, at every sensor, its emulated residual is within the
    thresholds widened by c emulator standard deviations.
-4. The next wave's real runs go to the kept region: the ends of each
-   parameter's range where the emulator's mean passes Eq. 8, then greedy
-   farthest points. A wave whose emulator failed validation is spread over the
+4. The next wave's real runs go to the kept region: first the edges, where
+   the candidate ranges are decided (the ``EDGE_POINTS`` kept points with the
+   lowest and the highest value of each parameter, each walked on the
+   emulator's mean to that parameter's extreme of the region where the mean
+   passes Eq. 8, :mod:`.edges`), then greedy farthest points. A wave whose emulator failed validation is spread over the
    whole domain instead (fallback). Repeat until the kept volume is stable and
    sigma is small against the threshold widths, or the budget is spent.
 5. A final wave spread over the kept region; the candidate model set is Eq. 8
