@@ -96,7 +96,31 @@ def edge_rows(points: np.ndarray, n_per_end: int) -> tuple[np.ndarray, np.ndarra
     """The ``n_per_end`` rows with the smallest values of each column, then the
     ``n_per_end`` with the largest, as (rows, column, sign): sign -1 at a low
     end, +1 at a high end. A row may appear for several columns. Ties go to the
-    lowest index (stable sort): deterministic. See :func:`edge_points`."""
+    lowest index (stable sort): deterministic. See :func:`edge_points`.
+
+    Parameters
+    ----------
+    points
+        (n, p) points.
+    n_per_end
+        Rows taken at each end of each column (at least 1).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Row indices, their column, their sign; ``2 * p * min(n_per_end, n)`` each.
+
+    Raises
+    ------
+    ValueError
+        ``n_per_end`` below 1 or ``points`` not 2-D.
+
+    Examples
+    --------
+    >>> rows, cols, signs = edge_rows(np.array([[0.1, 0.9], [0.5, 0.2]]), 1)
+    >>> rows.tolist(), cols.tolist(), signs.tolist()
+    ([0, 1, 1, 0], [0, 1, 0, 1], [-1.0, -1.0, 1.0, 1.0])
+    """
     if points.ndim != 2:
         raise ValueError(f"points: expected a 2-D array, got {points.ndim} dimensions")
     if isinstance(n_per_end, bool) or int(n_per_end) != n_per_end or n_per_end < 1:

@@ -18,7 +18,36 @@ import numpy as np
 def push(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callable, steps: int = 24) -> np.ndarray:
     """Moves each point along its axis (direction ``sign``) as far as ``passes``
     stays true, by bisection between where it holds (the start) and the
-    domain's edge; returns the last passing positions."""
+    domain's edge; returns the last passing positions.
+
+    Parameters
+    ----------
+    points
+        (n, p) start points in the unit cube, where ``passes`` holds.
+    axes, signs
+        Per point, the parameter to move along and the direction (-1 or +1).
+    passes
+        (m, p) points -> (m,) booleans (e.g. Eq. 8 on the emulator's mean).
+    steps
+        Bisection steps (the position is resolved to 2^-steps of the room).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, p) pushed points (a start where ``passes`` fails stays put unless
+        it holds at the domain's edge).
+
+    Raises
+    ------
+    IndexError
+        ``axes`` out of range.
+
+    Examples
+    --------
+    >>> inside = lambda u: u.sum(axis=1) <= 1.0
+    >>> push(np.array([[0.2, 0.3]]), np.array([0]), np.array([1.0]), inside).round(6).tolist()
+    [[0.7, 0.3]]
+    """
     rows = np.arange(points.shape[0])
     room = np.where(signs > 0, 1.0 - points[rows, axes], points[rows, axes])
     good, bad = np.zeros(len(rows)), room.copy()
@@ -53,6 +82,37 @@ def walk(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callab
     another parameter at its bound) that an axis push from a screening point
     does not reach; the candidate ranges are decided there. Deterministic;
     each round is one batched call of ``passes`` and one push.
+
+    Parameters
+    ----------
+    points, axes, signs, passes
+        As for :func:`push`.
+    deltas
+        Sideways step lengths, largest first.
+    offsets
+        Positions tried along the point's own parameter after a sideways move.
+    rounds
+        Most moves per step length.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, p) points where ``passes`` holds, each at least as far out in its
+        parameter as :func:`push` reaches.
+
+    Raises
+    ------
+    IndexError
+        ``axes`` out of range.
+
+    Examples
+    --------
+    >>> band = lambda u: np.abs(u[:, 0] - 0.5 * u[:, 1] - 0.3) <= 0.01   # thin, slanted
+    >>> start = np.array([[0.45, 0.3]])
+    >>> push(start, np.array([0]), np.array([-1.0]), band).round(3).tolist()   # stays at u1 = 0.3
+    [[0.44, 0.3]]
+    >>> walk(start, np.array([0]), np.array([-1.0]), band).round(3).tolist()   # the corner u1 = 0
+    [[0.29, 0.0]]
     """
     n, p = points.shape
     rows = np.arange(n)
