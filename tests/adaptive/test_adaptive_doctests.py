@@ -6,7 +6,7 @@ import importlib
 import pytest
 
 
-@pytest.mark.parametrize("name", ["screen", "design", "emulator", "waves"])
+@pytest.mark.parametrize("name", ["screen", "design", "edges", "emulator", "waves"])
 def test_examples_run(name):
     module = importlib.import_module(f"edmf_rs.adaptive.{name}")
     failures, tried = doctest.testmod(module, optionflags=doctest.ELLIPSIS)

@@ -92,6 +92,88 @@ def extremes(points: np.ndarray) -> np.ndarray:
     return np.unique(ends)
 
 
+def edge_rows(points: np.ndarray, n_per_end: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ``n_per_end`` rows with the smallest values of each column, then the
+    ``n_per_end`` with the largest, as (rows, column, sign): sign -1 at a low
+    end, +1 at a high end. A row may appear for several columns. Ties go to the
+    lowest index (stable sort): deterministic. See :func:`edge_points`.
+
+    Parameters
+    ----------
+    points
+        (n, p) points.
+    n_per_end
+        Rows taken at each end of each column (at least 1).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Row indices, their column, their sign; ``2 * p * min(n_per_end, n)`` each.
+
+    Raises
+    ------
+    ValueError
+        ``n_per_end`` below 1 or ``points`` not 2-D.
+
+    Examples
+    --------
+    >>> rows, cols, signs = edge_rows(np.array([[0.1, 0.9], [0.5, 0.2]]), 1)
+    >>> rows.tolist(), cols.tolist(), signs.tolist()
+    ([0, 1, 1, 0], [0, 1, 0, 1], [-1.0, -1.0, 1.0, 1.0])
+    """
+    if points.ndim != 2:
+        raise ValueError(f"points: expected a 2-D array, got {points.ndim} dimensions")
+    if isinstance(n_per_end, bool) or int(n_per_end) != n_per_end or n_per_end < 1:
+        raise ValueError(f"n_per_end: expected an integer >= 1, got {n_per_end!r}")
+    n, p = min(int(n_per_end), points.shape[0]), points.shape[1]
+    lows = np.argsort(points, axis=0, kind="stable")[:n].T.reshape(-1)
+    highs = np.argsort(-points, axis=0, kind="stable")[:n].T.reshape(-1)
+    cols = np.repeat(np.arange(p), n)
+    return (np.concatenate([lows, highs]).astype(np.int64), np.concatenate([cols, cols]),
+            np.concatenate([-np.ones(p * n), np.ones(p * n)]))
+
+
+def edge_points(points: np.ndarray, n_per_end: int) -> np.ndarray:
+    """Indices of the rows with the ``n_per_end`` smallest and the
+    ``n_per_end`` largest values of each column, without repeats (first
+    occurrence kept, in the order of :func:`edge_rows`: every column's lows,
+    then every column's highs).
+
+    These are the kept points at the edges of each parameter's range, where the
+    candidate ranges are decided: a thin kept region reaches its extreme in one
+    parameter at a corner that a single extreme point, or space-filling alone,
+    finds slowly.
+
+    Parameters
+    ----------
+    points
+        (n, p) points (e.g. the kept screening points, unit cube).
+    n_per_end
+        How many points to take at each end of each column (at least 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        Row indices (int64).
+
+    Raises
+    ------
+    ValueError
+        ``n_per_end`` below 1 or ``points`` not 2-D.
+
+    Examples
+    --------
+    >>> pts = np.array([[0.5, 0.0], [0.1, 0.9], [0.9, 0.5], [0.2, 0.4]])
+    >>> edge_points(pts, 1).tolist()
+    [1, 0, 2]
+    >>> edge_points(pts, 2).tolist()
+    [1, 3, 0, 2]
+    """
+    rows = edge_rows(points, n_per_end)[0]
+    _, first = np.unique(rows, return_index=True)
+    return rows[np.sort(first)]
+
+
 class RunStore:
     """Every real model run: parameters (unit cube and domain), outputs, and
     the wave that asked for it. A parameter row already run is never run

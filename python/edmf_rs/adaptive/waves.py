@@ -6,9 +6,11 @@
    around the kept ones, to resolve a small region) is screened (:mod:`.screen`, Rust):
    a point stays while, at every sensor, its emulated residual is within the
    thresholds widened by c emulator standard deviations.
-4. The next wave's real runs go to the kept region: the ends of each
-   parameter's range where the emulator's mean passes Eq. 8, then greedy
-   farthest points. A wave whose emulator failed validation is spread over the
+4. The next wave's real runs go to the kept region: first the edges, where
+   the candidate ranges are decided (the ``EDGE_POINTS`` kept points with the
+   lowest and the highest value of each parameter, each walked on the
+   emulator's mean to that parameter's extreme of the region where the mean
+   passes Eq. 8, :mod:`.edges`), then greedy farthest points. A wave whose emulator failed validation is spread over the
    whole domain instead (fallback). Repeat until the kept volume is stable and
    sigma is small against the threshold widths, or the budget is spent.
 5. A final wave spread over the kept region; the candidate model set is Eq. 8
@@ -32,14 +34,24 @@ from ..engine.falsify import falsify
 from ..engine.model import evaluate
 from ..engine.sampling import Parameter
 from ..engine.thresholds import Thresholds
-from .design import RunStore, extremes, farthest_points, sobol_points
+from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
 from .basis import VARIANCE_KEPT, emulators
+from .edges import push, walk
 from .emulator import EmulatorError
 from .result import AdaptiveResult, WaveRecord
 from .screen import required_margin, screen
 
 #: Kept points recorded per wave for plots.
 KEPT_SAMPLE = 400
+
+#: Kept points taken at each end of each parameter's range in every wave
+#: (then pushed to the mean's Eq. 8 boundary along that parameter): the
+#: candidate ranges are decided at these edges, and a thin kept region reaches
+#: its extreme at a corner that one point, or space-filling, finds slowly.
+EDGE_POINTS = 3
+
+#: Walk the edge points to the extreme of their parameter (:func:`edmf_rs.adaptive.edges.walk`).
+WALK = True
 
 #: With ``basis = "auto"``, more sensors than this are emulated on principal components.
 PCA_SENSORS = 10
@@ -352,8 +364,8 @@ def _n_candidates(g: np.ndarray, y: np.ndarray, t: Thresholds) -> int:
 def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_kept: np.ndarray,
             runs: np.ndarray, k: int, mean_passes: Callable | None = None) -> np.ndarray:
     """k points of the kept region: where the emulator's mean passes Eq. 8 (or,
-    if nowhere, over the kept region), the ends of each parameter's range
-    (pushed along that parameter's axis to where the mean stops passing, by
+    if nowhere, over the kept region), the ``EDGE_POINTS`` lowest and highest
+    points of each parameter's range (each pushed along that parameter's axis to where the mean stops passing, by
     bisection: the screening sample alone resolves them only to its spacing)
     and of each sensor's predicted range (a quantity of interest usually
     follows some sensor, so its prognosis interval ends near theirs), then
@@ -363,41 +375,17 @@ def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_k
     if at.size == 0:
         at = np.arange(kept.size)
     region = screening[kept[at]]
-    p = region.shape[1]
-    lows, highs = region.argmin(axis=0), region.argmax(axis=0)
-    ends = np.vstack([region[lows], region[highs]])
+    # The EDGE_POINTS lowest and highest kept points of each parameter, each
+    # pushed outwards along that parameter (repeats are dropped by farthest_points).
+    edge, axes, signs = edge_rows(region, EDGE_POINTS)
+    ends = region[edge]
     if mean_passes is not None and mean_kept.size:
-        axes = np.concatenate([np.arange(p), np.arange(p)])
-        signs = np.concatenate([-np.ones(p), np.ones(p)])
-        ends = _push(ends, axes, signs, mean_passes)
+        ends = walk(ends, axes, signs, mean_passes) if WALK else push(ends, axes, signs, mean_passes)
     sensor_ends = at[extremes(mu_kept[at])]
     pool = np.vstack([ends, screening[kept]])
     first = np.concatenate([np.arange(ends.shape[0]), ends.shape[0] + sensor_ends])
     picked = farthest_points(pool, runs, k, first=first)
     return pool[picked]
-
-
-def _push(points: np.ndarray, axes: np.ndarray, signs: np.ndarray, passes: Callable, steps: int = 24) -> np.ndarray:
-    """Moves each point along its axis (direction ``sign``) as far as ``passes``
-    stays true, by bisection between where it holds (the start) and the
-    domain's edge; returns the last passing positions."""
-    rows = np.arange(points.shape[0])
-    room = np.where(signs > 0, 1.0 - points[rows, axes], points[rows, axes])
-    good, bad = np.zeros(len(rows)), room.copy()
-
-    def moved(t):
-        out = points.copy()
-        out[rows, axes] += signs * t
-        return np.clip(out, 0.0, 1.0)
-
-    at_edge = passes(moved(room))
-    good[at_edge] = room[at_edge]
-    for _ in range(steps):
-        mid = 0.5 * (good + bad)
-        ok = passes(moved(mid)) & ~at_edge
-        good = np.where(ok, mid, good)
-        bad = np.where(ok | at_edge, bad, mid)
-    return moved(good)
 
 
 def _closest(screening: np.ndarray, need: np.ndarray, runs: np.ndarray, k: int) -> np.ndarray:
