@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .emulator import EmulatorError, SensorEmulators, Validation
+from .emulator import SensorEmulators, Validation, checked_runs
 
 #: Share of the standardised outputs' variance the kept components explain.
 VARIANCE_KEPT = 0.999
@@ -77,13 +77,7 @@ class PCAEmulators:
 
     def __init__(self, u: np.ndarray, g: np.ndarray, previous: PCAEmulators | None = None, optimize: bool = True,
                  variance_kept: float = VARIANCE_KEPT):
-        u, g = np.asarray(u, dtype=np.float64), np.asarray(g, dtype=np.float64)
-        n, p = u.shape
-        if n < p + 1:
-            raise EmulatorError(f"the emulator needs at least n_params + 1 = {p + 1} runs, got {n}")
-        bad = np.flatnonzero(~np.isfinite(g).all(axis=1))
-        if bad.size:
-            raise EmulatorError(f"run {bad[0]} has a non-finite output; the emulator is fitted on finite outputs only")
+        u, g, n, p = checked_runs(u, g)
         self.p, self.n_sensors, self.n_runs = p, g.shape[1], n
         self.center = g.mean(axis=0)
         spread = g.std(axis=0)

@@ -48,6 +48,18 @@ class EmulatorError(ValueError):
     """
 
 
+def checked_runs(u, g):
+    """(u, g, n runs, p parameters) as float64, or an EmulatorError: at least p + 1 runs, finite outputs."""
+    u, g = np.asarray(u, dtype=np.float64), np.asarray(g, dtype=np.float64)
+    n, p = u.shape
+    if n < p + 1:
+        raise EmulatorError(f"the emulator needs at least n_params + 1 = {p + 1} runs, got {n}")
+    bad = np.flatnonzero(~np.isfinite(g).all(axis=1))
+    if bad.size:
+        raise EmulatorError(f"run {bad[0]} has a non-finite output; the emulator is fitted on finite outputs only")
+    return u, g, n, p
+
+
 @dataclass(frozen=True, eq=False)
 class Validation:
     """Leave-one-out check of every sensor's emulator (Rasmussen & Williams 2006, Eq. 5.12).
@@ -108,13 +120,7 @@ class SensorEmulators:
         from sklearn.gaussian_process import GaussianProcessRegressor
         from sklearn.gaussian_process.kernels import ConstantKernel, Matern
 
-        u, g = np.asarray(u, dtype=np.float64), np.asarray(g, dtype=np.float64)
-        n, p = u.shape
-        if n < p + 1:
-            raise EmulatorError(f"the emulator needs at least n_params + 1 = {p + 1} runs, got {n}")
-        bad = np.flatnonzero(~np.isfinite(g).all(axis=1))
-        if bad.size:
-            raise EmulatorError(f"run {bad[0]} has a non-finite output; the emulator is fitted on finite outputs only")
+        u, g, n, p = checked_runs(u, g)
         self.p, self.n_sensors, self.n_runs = p, g.shape[1], n
         self.models: list = []
         self.constant: list[float | None] = []

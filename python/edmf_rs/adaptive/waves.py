@@ -20,8 +20,8 @@
 from __future__ import annotations
 
 import math
-import time
 import numbers
+import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
@@ -34,8 +34,8 @@ from ..engine.falsify import falsify
 from ..engine.model import evaluate
 from ..engine.sampling import Parameter
 from ..engine.thresholds import Thresholds
-from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
 from .basis import VARIANCE_KEPT, emulators
+from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
 from .edges import push, walk
 from .emulator import EmulatorError
 from .result import AdaptiveResult, WaveRecord
