@@ -108,7 +108,8 @@ def digestible(rows) -> np.ndarray:
     arr = arr[:, None] if arr.ndim == 1 else arr
     if (arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative or not arr.flags.aligned
             or any(s < 0 for s in arr.strides)):
-        arr = np.ascontiguousarray(arr, dtype=np.float64 if arr.dtype != np.float32 else np.float32)
+        # a copy, always: ascontiguousarray returns an empty array with negative strides unchanged
+        arr = np.array(arr, dtype=np.float64 if arr.dtype != np.float32 else np.float32, order="C")
     return arr
 
 
