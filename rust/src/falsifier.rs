@@ -330,7 +330,7 @@ fn diagnose_parallel<T: Prediction + Value>(
                 let first = k * BLOCK_ROWS;
                 let rows = m.slice_rows(first, first + o.len());
                 match sum_from {
-                    // Each few kilobytes summed right after the kernel read them (in L1).
+                    // Each 128 KiB summed right after the kernel read them (in L2).
                     Some(base) => {
                         *slot = digest::part_after(rows, base + first as u64, &mut buf, |r0, r1| {
                             diagnose(rows.slice_rows(r0, r1), b, &mut o[r0..r1], &mut t)
@@ -366,7 +366,7 @@ fn screen_parallel<T: Prediction + Value>(
             let first = k * BLOCK_ROWS;
             let rows = m.slice_rows(first, first + o.len());
             match sum_from {
-                // Each few kilobytes summed right after the kernel read them (in L1).
+                // Each 128 KiB summed right after the kernel read them (in L2).
                 Some(base) => {
                     *slot = digest::part_after(rows, base + first as u64, buf, |r0, r1| {
                         screen(rows.slice_rows(r0, r1), b, plan, &mut o[r0..r1])

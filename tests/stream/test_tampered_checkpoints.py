@@ -76,12 +76,50 @@ def test_forged_candidate_indices_are_refused(tmp_path, array, match):
     folder = tmp_path / "run"
     predictions, y, t, _ = _finished(folder, keep_violations=False)
     state = _load(folder)
-    state["parts"][1]["n_candidates"] = len(array)
+    state["parts"][1].update(n_candidates=len(array), candidates="indices")
     state_file.write(folder / "state.json", state)
     _forge_part(folder, 1, "candidates", array)
     with pytest.raises(ValueError, match=f"part-000001.candidates.npy .*{match}"):
         edmf_rs.falsify(predictions, y, t, chunk_rows=1000, keep_violations=False, checkpoint=folder,
                         progress=False)
+
+
+def _words(bits):
+    """Little-endian uint64 words with the given bit positions set."""
+    words = np.zeros(16, np.uint64)
+    for b in bits:
+        words[b // 64] |= np.uint64(1) << np.uint64(b % 64)
+    return words
+
+
+@pytest.mark.parametrize("array, n_candidates, match", [
+    (_words([0, 999, 1000]), 3, "bits past its 1000 instances"),  # 1000 instances: bit 1000 is past them
+    (_words([0, 5]), 3, "not 3 set"),
+    (_words([0])[:15], 1, r"shape \(15,\), expected 16 rows"),
+    (_words([0]).astype(np.int64), 1, "1-D int64 array, expected 1-D uint64"),
+])
+def test_forged_candidate_bitmaps_are_refused(tmp_path, array, n_candidates, match):
+    folder = tmp_path / "run"
+    predictions, y, t, _ = _finished(folder, keep_violations=False)
+    assert _load(folder)["parts"][1]["candidates"] == "bitmap"  # dense candidates: the smaller form
+    state = _load(folder)
+    state["parts"][1]["n_candidates"] = n_candidates
+    state_file.write(folder / "state.json", state)
+    _forge_part(folder, 1, "candidates", array)
+    with pytest.raises(ValueError, match=f"part-000001.candidates.npy .*{match}"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, keep_violations=False, checkpoint=folder,
+                        progress=False)
+
+
+def test_an_unknown_candidate_form_is_refused(tmp_path):
+    folder = tmp_path / "run"
+    predictions, y, t, _ = _finished(folder)
+    state = _load(folder)
+    state["parts"][0]["candidates"] = "runs"
+    state_file.write(folder / "state.json", state)
+    with pytest.raises(ValueError, match=r"state.json gives part 0 candidates of form 'runs', expected one of "
+                                         r"\['bitmap', 'indices'\]"):
+        edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
 
 
 def test_forged_violation_counts_are_refused(tmp_path):

@@ -15,7 +15,7 @@ interface, whichever kind it is:
 
 The block checksums of the chunks a run falsifies are computed by the
 falsifier in the same pass (``acc.update(chunk, digest=run.digest(first))``:
-each few kilobytes of rows are summed right after the kernel has read them,
+each 128 KiB of rows are summed right after the kernel has read them,
 while they are in cache); ``done`` sums in a
 separate pass the rows that are not the falsifier's input (the parameter sets
 of ``falsify_model``). Rows re-read on resumption are checked by a separate
@@ -49,6 +49,13 @@ def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds, **mo
         n_violated=None if violations is None else readonly(violations.view(np.int32)),
         **more,
     )
+
+def saved_fields(ckpt: Checkpoint, n_sensors: int) -> dict:
+    """A finished folder's result fields, the candidates left as the parts hold them."""
+    fields = ckpt.saved(n_sensors)
+    fields["candidate_indices"] = CandidateSegments(fields.pop("candidate_segments"))
+    return fields
+
 
 def readonly(arr: np.ndarray) -> np.ndarray:
     arr.flags.writeable = False
@@ -138,7 +145,7 @@ class Durable:
         if rest is not None:
             self._ckpt.confirm_finished(rest)
         return FalsificationResult(thresholds=thresholds, measurements=measurements,
-                                   **self._ckpt.saved(thresholds.n_sensors))
+                                   **saved_fields(self._ckpt, thresholds.n_sensors))
 
     #: Whether ``digest`` hands the falsifier the run's digest (True), or leaves
     #: the hashing to ``done`` in a second pass (False: the older way, kept
@@ -174,7 +181,7 @@ class Durable:
         self._ckpt.extra.update(extra)
         self._ckpt.flush(acc, kept, final=True)
         return FalsificationResult(thresholds=thresholds, measurements=measurements,
-                                   **self._ckpt.saved(thresholds.n_sensors))
+                                   **saved_fields(self._ckpt, thresholds.n_sensors))
 
 def open_run(folder, fingerprint: dict, every: float, fields: tuple[str, ...] = (),
              input_name: str = "predictions", rereadable: bool = True) -> Ephemeral | Durable:

@@ -277,33 +277,46 @@ class Checkpoint:
     def saved(self, n_sensors: int) -> dict[str, object]:
         """The finished run read back from the parts (each checked against
         its checksum, dtype, shape and range), as the keyword arguments of a
-        ``FalsificationResult`` (without thresholds and measurements)."""
+        ``FalsificationResult`` (without thresholds and measurements), but for
+        ``candidate_segments``: the candidates, part by part, as
+        ``CandidateSegments`` takes them (bitmap parts stay bitmaps)."""
         names = ("candidates",) + self.fields
         pieces: dict[str, list[np.ndarray]] = {name: [] for name in names}
         first = 0
         widths = {"parameters": self.extra.get("n_parameters"), "predictions": n_sensors}
         for k, part in enumerate(self.parts):
+            n, form = part["n_instances"], part.get("candidates")
+            if form not in parts.FORMS:
+                raise ValueError(f"checkpoint: {self.folder / STATE} gives part {k} candidates of form {form!r}, "
+                                 f"expected one of {sorted(parts.FORMS)}; delete the folder to start over")
             loaded = {}
             for name in names:
-                rows = part["n_instances"] if name == "n_violated" else part["n_candidates"]
-                loaded[name] = parts.load(self.part_path(k, name), part["sha256"][name], name, rows,
-                                          widths.get(name))
-            parts.check_candidates(self.part_path(k, "candidates"), loaded["candidates"], first,
-                                   part["n_instances"])
+                rows = {"n_violated": n, "candidates": -(-n // 64) if form == "bitmap" else part["n_candidates"]}
+                loaded[name] = parts.load(self.part_path(k, name), part["sha256"][name], name,
+                                          rows.get(name, part["n_candidates"]), widths.get(name),
+                                          parts.FORMS[form] if name == "candidates" else None)
+            path = self.part_path(k, "candidates")
+            if form == "bitmap":
+                mask = parts.bitmap_mask(path, loaded["candidates"], n, part["n_candidates"])
+                loaded["candidates"] = (first, n, loaded["candidates"])
+            else:
+                parts.check_candidates(path, loaded["candidates"], first, n)
+                mask = np.zeros(n, bool)
+                mask[loaded["candidates"] - first] = True
             if "n_violated" in loaded:
-                parts.check_violations(self.part_path(k, "n_violated"), loaded["n_violated"], n_sensors,
-                                       loaded["candidates"], first)
+                parts.check_violations(self.part_path(k, "n_violated"), loaded["n_violated"], n_sensors, mask)
             for name in names:
                 pieces[name].append(loaded[name])
-            first += part["n_instances"]
-        empty = {"candidates": np.empty(0, np.int64), "n_violated": np.empty(0, np.int32),
+            first += n
+        empty = {"n_violated": np.empty(0, np.int32),
                  "parameters": np.empty((0, self.extra.get("n_parameters", 0))),
                  "predictions": np.empty((0, n_sensors))}
+        segments = [c if isinstance(c, tuple) else c.astype(np.uint64) for c in pieces.pop("candidates")]
         arrays = {name: _readonly(np.concatenate(p) if p else empty[name]) for name, p in pieces.items()}
         t = self.tally
         return {
             "n_instances": self.n_done,
-            "candidate_indices": arrays["candidates"],
+            "candidate_segments": segments,
             "per_sensor_falsified": None if t is None else _readonly(np.array(t["per_sensor_falsified"], np.int64)),
             "falsified_only_by": None if t is None else _readonly(np.array(t["falsified_only_by"], np.int64)),
             "n_invalid": None if t is None else int(t["n_invalid"]),
@@ -340,8 +353,9 @@ class Checkpoint:
         files: dict[str, np.ndarray] = {}
         new_parts = list(self.parts)
         if n_done > self.n_done:
-            # The accumulator's instances since the last save (it started at `base`).
-            files["candidates"] = acc.candidates_since(self.n_done - self.base).astype(np.int64) + self.base
+            # The accumulator's candidates since the last save (each save takes them out; it started at `base`).
+            form, n_candidates, files["candidates"] = parts.candidates_file(
+                acc.take_candidate_segments(), self.n_done, n_done - self.n_done, self.base)
             if "n_violated" in self.fields:
                 files["n_violated"] = acc.take_violations().view(np.int32)
             for name, rows in arrays.items():
@@ -363,8 +377,8 @@ class Checkpoint:
                 sums[name] = save_npy(target, arr)
                 written.append(target)
             if files:
-                new_parts.append({"n_instances": n_done - self.n_done, "n_candidates": len(files["candidates"]),
-                                  "sha256": sums})
+                new_parts.append({"n_instances": n_done - self.n_done, "n_candidates": n_candidates,
+                                  "candidates": form, "sha256": sums})
             state = {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
                      "rereadable": self.rereadable and self.was_rereadable,
                      "rows": {"checksum": _core.RowDigest.algorithm, "block_rows": _core.RowDigest.block_rows,

@@ -17,11 +17,20 @@ from . import atomic
 #: What each field holds: allowed dtypes, and whether rows are instances
 #: (``n_violated``) or candidates (the others).
 DTYPES = {
-    "candidates": (np.dtype(np.int64),),
+    "candidates": (np.dtype(np.int64), np.dtype("<u8")),
     "n_violated": (np.dtype(np.int32),),
     "parameters": (np.dtype(np.float64),),
     "predictions": (np.dtype(np.float64), np.dtype(np.float32)),
 }
+
+
+#: How a part stores its candidates: ``indices`` (int64, one per candidate)
+#: or ``bitmap`` (uint64 words, bit ``i % 64`` of word ``i // 64`` set iff
+#: the part's instance ``i`` is a candidate), whichever is smaller: with every
+#: instance a candidate the bitmap is 64 times smaller than the indices, and
+#: writing, hashing and checking 8 bytes per candidate cost several times the
+#: falsification itself.
+FORMS = {"indices": np.dtype(np.int64), "bitmap": np.dtype("<u8")}
 
 
 def name(k: int, field: str) -> str:
@@ -37,10 +46,11 @@ def save(target: Path, array: np.ndarray) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def load(path: Path, sha256: str, field: str, rows: int, width: int | None = None) -> np.ndarray:
+def load(path: Path, sha256: str, field: str, rows: int, width: int | None = None,
+         dtype: np.dtype | None = None) -> np.ndarray:
     """The array in ``path``, refused (ValueError naming it) unless its bytes
     have the recorded sha256 and it is ``rows`` long of the field's dtype
-    (``width`` columns for 2-D fields)."""
+    (``dtype`` if given; ``width`` columns for 2-D fields)."""
     def damaged(why: str) -> ValueError:
         return ValueError(f"checkpoint: {path} {why}; the folder was changed since the run wrote it: "
                           "delete the folder to start over")
@@ -59,8 +69,9 @@ def load(path: Path, sha256: str, field: str, rows: int, width: int | None = Non
     except (OSError, ValueError, EOFError) as exc:
         raise damaged(f"is not a readable .npy file ({exc})") from None
     ndim = 1 if field in ("candidates", "n_violated") else 2
-    if arr.dtype not in DTYPES[field] or arr.ndim != ndim:
-        raise damaged(f"holds a {arr.ndim}-D {arr.dtype} array, expected {ndim}-D {DTYPES[field][0]}")
+    allowed = DTYPES[field] if dtype is None else (dtype,)
+    if arr.dtype not in allowed or arr.ndim != ndim:
+        raise damaged(f"holds a {arr.ndim}-D {arr.dtype} array, expected {ndim}-D {allowed[0]}")
     if arr.shape[0] != rows or (ndim == 2 and width is not None and arr.shape[1] != width):
         raise damaged(f"has shape {arr.shape}, expected {rows} rows" + (f" x {width}" if ndim == 2 else ""))
     return arr
@@ -73,8 +84,53 @@ def check_candidates(path: Path, idx: np.ndarray, first: int, n_instances: int) 
                          f"{first}..{first + n_instances - 1} or not increasing; delete the folder to start over")
 
 
-def check_violations(path: Path, counts: np.ndarray, n_sensors: int, idx: np.ndarray, first: int) -> None:
-    """Violated-sensor counts lie in 0..n_sensors and are 0 at every candidate."""
-    if counts.size and (counts.min() < 0 or counts.max() > n_sensors) or np.any(counts[idx - first] != 0):
+def check_violations(path: Path, counts: np.ndarray, n_sensors: int, mask: np.ndarray) -> None:
+    """Violated-sensor counts lie in 0..n_sensors and are 0 at every candidate (``mask``)."""
+    if counts.size and (counts.min() < 0 or counts.max() > n_sensors) or np.any(counts[mask] != 0):
         raise ValueError(f"checkpoint: {path} holds counts of violated sensors out of range 0..{n_sensors} "
                          "or inconsistent with the candidates; delete the folder to start over")
+
+
+def candidates_file(segments: list, first: int, n_instances: int, offset: int) -> tuple[str, int, np.ndarray]:
+    """``(form, count, array)`` of a part's candidates (see `FORMS`): the run's
+    instances ``first .. first + n_instances``, from the accumulator's
+    ``take_candidate_segments`` (uint64 indices, or ``(start, rows, words)``
+    bitmaps; a position ``p`` there is the run's instance ``offset + p``)."""
+    count = sum(int(np.count_nonzero(_bits(s[1], s[2]))) if isinstance(s, tuple) else len(s) for s in segments)
+    if count * 64 <= n_instances:
+        idx = [np.flatnonzero(_bits(s[1], s[2])) + s[0] if isinstance(s, tuple) else s.astype(np.int64)
+               for s in segments]
+        out = np.concatenate(idx) if idx else np.empty(0, np.int64)
+        return "indices", count, out.astype(np.int64, copy=False) + offset
+    mask = np.zeros(n_instances, dtype=bool)
+    start = first - offset
+    for s in segments:
+        if isinstance(s, tuple):
+            mask[s[0] - start:s[0] - start + s[1]] = _bits(s[1], s[2])
+        else:
+            mask[s.astype(np.int64) - start] = True
+    return "bitmap", count, words_of(mask)
+
+
+def words_of(mask: np.ndarray) -> np.ndarray:
+    """Little-endian uint64 words of a boolean mask (bit ``i % 64`` of word ``i // 64``)."""
+    packed = np.packbits(mask, bitorder="little")
+    padded = np.zeros(-(-len(packed) // 8) * 8, np.uint8)
+    padded[:len(packed)] = packed
+    return padded.view("<u8")
+
+
+def _bits(rows: int, words: np.ndarray) -> np.ndarray:
+    """The first ``rows`` bits of little-endian uint64 ``words``, as booleans."""
+    raw = np.ascontiguousarray(words, dtype="<u8").view(np.uint8)
+    return np.unpackbits(raw, count=rows, bitorder="little").view(bool)
+
+
+def bitmap_mask(path: Path, words: np.ndarray, n_instances: int, n_candidates: int) -> np.ndarray:
+    """The candidates of a bitmap part as a boolean mask, refused unless
+    exactly ``n_candidates`` bits are set and none past ``n_instances``."""
+    bits = _bits(len(words) * 64, words)
+    if bits[n_instances:].any() or np.count_nonzero(bits) != n_candidates:
+        raise ValueError(f"checkpoint: {path} holds a candidate bitmap with bits past its {n_instances} "
+                         f"instances or not {n_candidates} set; delete the folder to start over")
+    return bits[:n_instances]

@@ -17,11 +17,14 @@ from pathlib import Path
 from . import atomic
 
 STATE = "state.json"
-#: Version 3: rows are checked with the block checksum ``fletcher64x8/1``
-#: (see ``rust/src/digest.rs``); version 2 recorded xxh3 digests.
-FORMAT = "edmf_rs.checkpoint/3"
+#: Version 4: a part's candidates are a bitmap where that is smaller than
+#: their indices (``parts.FORMS``). Version 3 checked rows with the same
+#: block checksum ``fletcher64x8/1`` (``rust/src/digest.rs``) but stored
+#: indices only; version 2 recorded xxh3 digests.
+FORMAT = "edmf_rs.checkpoint/4"
 #: Formats of earlier versions, refused with a message saying so.
-EARLIER = {"edmf_rs.checkpoint/2": "xxh3 digests of its rows"}
+EARLIER = {"edmf_rs.checkpoint/2": "xxh3 digests of its rows",
+           "edmf_rs.checkpoint/3": "candidates stored as indices only"}
 #: Largest integer a state may hold (counts are int64 in the results).
 INT_MAX = 2**63 - 1
 #: A state this large is not one a run wrote (it holds counts and digests).
@@ -70,9 +73,8 @@ def read(path: Path) -> dict | None:
         fmt = exc.args[0]
         raise ValueError(
             f"checkpoint: {path} was written by an earlier version of edmf_rs (format {fmt!r}, with "
-            f"{EARLIER[fmt]}); this version checks the rows already done with other checksums "
-            f"(format {FORMAT!r}), so it cannot check this folder's: delete the folder or pass another "
-            "one to start over"
+            f"{EARLIER[fmt]}); this version writes format {FORMAT!r} and cannot resume it: delete the "
+            "folder or pass another one to start over"
         ) from None
     except OSError as exc:
         raise _damaged(path, exc.strerror or exc) from None
