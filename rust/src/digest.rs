@@ -136,20 +136,20 @@ pub fn sum_with<T: Value>(isa: Isa, values: &[T], k0: u64, s: &mut Sums) {
     let head = (((LANES as u64 - k0 % LANES as u64) % LANES as u64) as usize).min(values.len());
     let m = (values.len() - head) / LANES;
     let groups = &values[head..head + m * LANES];
+    if m == 0 {
+        return literal(values, k0, s);
+    }
     #[cfg(target_arch = "x86_64")]
-    let lanes = match isa {
+    let [s1, h1, s2, h2] = match isa {
         // SAFETY: the CPU runs the level (checked by `supported`).
-        Isa::Avx512 if m > 0 && isa.supported() => Some(unsafe { T::groups_avx512(groups) }),
-        Isa::Avx2 if m > 0 && isa.supported() => Some(unsafe { T::groups_avx2(groups) }),
-        _ => None,
+        Isa::Avx512 if isa.supported() => unsafe { T::groups_avx512(groups) },
+        Isa::Avx2 if isa.supported() => unsafe { T::groups_avx2(groups) },
+        _ => groups_portable(groups),
     };
     #[cfg(not(target_arch = "x86_64"))]
-    let lanes: Option<[[u64; LANES]; 4]> = {
+    let [s1, h1, s2, h2] = {
         let _ = isa;
-        None
-    };
-    let Some([s1, h1, s2, h2]) = lanes else {
-        return literal(values, k0, s);
+        groups_portable(groups)
     };
     literal(&values[..head], k0, s);
     // Over steps j0 .. j0 + m: s1 = sum x_t, s2 = sum (m - t) x_t, so
@@ -162,6 +162,24 @@ pub fn sum_with<T: Value>(isa: Isa, values: &[T], k0: u64, s: &mut Sums) {
         s.g[l] = s.g[l].wrapping_add(end.wrapping_mul(h1[l]).wrapping_sub(h2[l]));
     }
     literal(&values[head + m * LANES..], k0 + (head + m * LANES) as u64, s);
+}
+
+/// The vector loops' recurrence (`simd::checksum`) in plain Rust over
+/// fixed-width lanes, which the compiler vectorises for any target: the
+/// portable level, and CPUs other than x86-64, sum at memory speed too
+/// instead of at the definition's one multiplication per word.
+fn groups_portable<T: Value>(values: &[T]) -> [[u64; LANES]; 4] {
+    let (mut s1, mut h1, mut s2, mut h2) = ([0u64; LANES], [0u64; LANES], [0u64; LANES], [0u64; LANES]);
+    for group in values.chunks_exact(LANES) {
+        for l in 0..LANES {
+            let w = group[l].bits();
+            s1[l] = s1[l].wrapping_add(w);
+            h1[l] = h1[l].wrapping_add(w >> 32);
+            s2[l] = s2[l].wrapping_add(s1[l]);
+            h2[l] = h2[l].wrapping_add(h1[l]);
+        }
+    }
+    [s1, h1, s2, h2]
 }
 
 /// The sums of some consecutive rows, split at the block boundary they may
