@@ -26,6 +26,7 @@ from .candidates import CandidateWriter
 from .diagnostics import SensitivityTracker, leave_one_out
 from .evaluation import checked_model, discount_failed_runs, model_instances
 from .external import command_model, make_evaluator
+from .identification import IdentificationTable, identification_fields
 from .inputs import check_model_sensors, check_sensors, import_function
 from .measurements import read_measurements
 from .plan import Plan, check_estimate
@@ -41,7 +42,7 @@ __all__ = ["Project", "ProjectError"]
 
 
 @dataclass(frozen=True, eq=False)
-class Project:
+class Project(IdentificationTable):
     """A checked project: parameters and their sampling, model, sensors, uncertainty sources.
 
     Build it with `from_toml` from a project file (the format is on the
@@ -82,13 +83,6 @@ class Project:
     (('E',), 10, 0.95)
     """
 
-    file: Path
-    name: str
-    description: str
-    phi: float
-    correction: str
-    n_samples: int
-    seed: int
     parameters: tuple[Parameter, ...]
     sampling: Sampling | None
     sensors: tuple[Sensor, ...]
@@ -163,9 +157,7 @@ class Project:
         prognosis = tuple((p, import_function(p.function, p.path, label, f"{p.key}.function"))
                           for p in spec.prognosis)
         return cls(
-            file=spec.file, name=spec.name, description=spec.description, phi=spec.phi,
-            correction=spec.correction, n_samples=spec.n_samples, seed=spec.seed,
-            parameters=spec.parameters, sampling=spec.sampling, sensors=sensors,
+            **identification_fields(spec), parameters=spec.parameters, sampling=spec.sampling, sensors=sensors,
             excluded=tuple(s for i, s in enumerate(all_sensors) if i not in kept),
             uncertainty=resolve_sources(spec.uncertainty, all_sensors, kept, label),
             model=spec.model, model_function=model_function, n_model_columns=len(all_sensors), kept=kept,
