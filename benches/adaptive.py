@@ -137,10 +137,15 @@ def main():
             lines.append(f"  no dense run up to 2^{args.reference_log2} met the 2 % target; adaptive used "
                          f"{r.n_runs / theta.shape[0]:.4f} of 2^{args.reference_log2} runs")
         print("\n".join(lines[first_line:]), flush=True)
-    lines.append(f"\nload average at the end {os.getloadavg()[0]:.1f}")
-    text = "\n".join(lines) + "\n"
+    finish(lines + [""], args.out)
+
+
+def finish(lines: list[str], out: str) -> None:
+    """The table with the load average at the end, printed and written to ``out``
+    (also for benches/adaptive_basis.py)."""
+    text = "\n".join(lines + [f"load average at the end {os.getloadavg()[0]:.1f}"]) + "\n"
     print(text)
-    with open(args.out, "w") as fh:
+    with open(out, "w") as fh:
         fh.write(text)
 
 

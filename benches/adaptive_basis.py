@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "adapt
 from test_adaptive_basis import THRESHOLDS, Y, model  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from adaptive import cpu_model  # noqa: E402
+from adaptive import cpu_model, finish  # noqa: E402
 
 
 def timed(make):
@@ -57,11 +57,7 @@ def main():
                      f"kept {kept_s.size} (per sensor) and {kept_p.size} (PCA), "
                      f"{np.setdiff1d(kept_s, kept_p).size} kept by the per-sensor emulators only")
         print(lines[-1], flush=True)
-    lines.append(f"load average at the end {os.getloadavg()[0]:.1f}")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    with open(args.out, "w") as fh:
-        fh.write(text)
+    finish(lines, args.out)
 
 
 if __name__ == "__main__":

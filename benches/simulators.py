@@ -17,8 +17,8 @@ import argparse
 import json
 import platform
 import subprocess
+import sys
 import tempfile
-import textwrap
 import time
 from pathlib import Path
 
@@ -26,6 +26,9 @@ import numpy as np
 
 from edmf_rs import Project
 from edmf_rs.simulators import CommandModel, CommandSpec, Evaluator
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the project-folder builder the tests use
+from _projects import project_text, write_project  # noqa: E402
 
 SLEEP = 0.05
 SENSORS = ("S1", "S2")
@@ -83,32 +86,6 @@ def overhead(n: int, tmp: Path, repeat: int = 3) -> None:
           f"files, parse; clean-up in the background): {(t - b) * 1e3:.2f} ms")
 
 
-PROJECT = textwrap.dedent("""
-    [identification]
-    phi = 0.95
-    [parameters.a]
-    low = 0.0
-    high = 1.0
-    [parameters.b]
-    low = 0.0
-    high = 1.0
-    [sampling]
-    method = "sobol"
-    n = {n}
-    [model]
-    command = ["/bin/sh", "-c", "sleep {sleep} && cp deck.csv results.csv"]
-    files = ["deck.csv"]
-    workers = 2
-    [measurements]
-    file = "meas.csv"
-    [[uncertainty]]
-    name = "model"
-    kind = "model"
-    distribution = "normal"
-    sd = {sd}
-""")
-
-
 def rerun(n: int, tmp: Path) -> None:
     folder = tmp / "project"
     folder.mkdir()
@@ -117,10 +94,16 @@ def rerun(n: int, tmp: Path) -> None:
     out = folder / "out"
     times, evaluations = [], []
     for sd in (0.1, 0.2):
-        (folder / "p.toml").write_text(PROJECT.replace("{n}", str(n)).replace("{sleep}", str(SLEEP))
-                                       .replace("{sd}", str(sd)))
+        text = project_text(
+            identification={"phi": 0.95}, parameters={"a": (0.0, 1.0), "b": (0.0, 1.0)},
+            sampling={"method": "sobol", "n": n},
+            model={"command": ["/bin/sh", "-c", f"sleep {SLEEP} && cp deck.csv results.csv"], "files": ["deck.csv"],
+                   "workers": 2},
+            measurements={"file": "meas.csv"},
+            uncertainty=[{"name": "model", "kind": "model", "distribution": "normal", "sd": sd}])
+        path = write_project(folder, text)
         start = time.perf_counter()
-        ident = Project.from_toml(folder / "p.toml").run(progress=False, out=out)
+        ident = Project.from_toml(path).run(progress=False, out=out)
         times.append(time.perf_counter() - start)
         evaluations.append((ident.evaluation["model_evaluations"], ident.evaluation["reused_evaluations"]))
     print(f"[3] Project.run, {n} instances, 50 ms stand-in, 2 workers: first run {times[0]:.2f} s "

@@ -177,3 +177,19 @@ def test_max_per_type_in_the_project_file(small_project, tmp_path, capsys):
     bad.write_text(small_project.read_text().replace("k = 12", "k = 12\nmax_per_type = { rotation = 1 }"))
     assert main(["design", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "design.max_per_type" in capsys.readouterr().err
+
+
+def test_design_project_files_are_read_like_identification_projects(tmp_path):
+    # One reader for both kinds of project file: the same messages for a missing file, a directory, bad TOML.
+    from edmf_rs.project import ProjectError
+
+    with pytest.raises(ProjectError, match=r"nowhere\.toml: no such project file \(looked in "):
+        read_design_project(tmp_path / "nowhere.toml")
+    with pytest.raises(ProjectError, match="expected a project file \\(TOML\\), got a directory"):
+        read_design_project(tmp_path)
+    (tmp_path / "bad.toml").write_text("[identification]\nphi = = 0.9\n")
+    with pytest.raises(ProjectError, match=r"bad\.toml: invalid TOML"):
+        read_design_project(tmp_path / "bad.toml")
+    (tmp_path / "phi.toml").write_text("[identification]\nphi = 1.0\n")
+    with pytest.raises(ProjectError, match=r"identification\.phi: expected a probability in \(0, 1\), got 1\.0"):
+        read_design_project(tmp_path / "phi.toml")

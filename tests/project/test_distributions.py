@@ -2,9 +2,6 @@
 any continuous scipy.stats distribution by name with its own parameters, and the
 messages for bad names and parameters."""
 
-import json
-import textwrap
-
 import numpy as np
 import pytest
 from edmf_rs.engine import intervals
@@ -12,46 +9,18 @@ from edmf_rs.engine.distributions import distribution
 from edmf_rs.project import Project, ProjectError
 from scipy import stats
 
+from _projects import project_text, write_project
+from _projects import uncertainty as source
+
 MODEL = "def predict(theta):\n    return theta @ __import__('numpy').array([[1.0, 2.0]])\n"
-BASE = textwrap.dedent("""
-    [identification]
-    name = "dist"
-    [parameters.a]
-    low = 0.0
-    high = 2.0
-    [sampling]
-    method = "grid"
-    points = { a = 11 }
-    [model]
-    function = "dmodel:predict"
-    [[measurements.sensors]]
-    name = "S1"
-    value = 1.0
-    [[measurements.sensors]]
-    name = "S2"
-    value = 2.0
-""")
-
-
-def source(**kw) -> str:
-    lines = []
-    for k, v in kw.items():
-        if isinstance(v, dict):
-            v = "{ " + ", ".join(f"{a} = {json.dumps(b)}" for a, b in v.items()) + " }"
-        else:
-            v = json.dumps(v)
-        lines.append(f"{k} = {v}")
-    return "\n[[uncertainty]]\n" + "\n".join(lines) + "\n"
-
-
+BASE = project_text(identification={"name": "dist"}, parameters={"a": (0.0, 2.0)},
+                    sampling={"method": "grid", "points": {"a": 11}}, model={"function": "dmodel:predict"},
+                    sensors=[{"name": "S1", "value": 1.0}, {"name": "S2", "value": 2.0}])
 NOISE = source(name="noise", kind="measurement", distribution="normal", sd=0.01)
 
 
 def project(tmp_path, *sources) -> Project:
-    (tmp_path / "dmodel.py").write_text(MODEL)
-    path = tmp_path / "p.toml"
-    path.write_text(BASE + "".join(sources))
-    return Project.from_toml(path)
+    return Project.from_toml(write_project(tmp_path, BASE + "".join(sources), modules={"dmodel": MODEL}))
 
 
 def test_lognorm_by_scipy_name_with_its_own_parameters(tmp_path):

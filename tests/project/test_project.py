@@ -14,81 +14,36 @@ from edmf_rs import cli
 from edmf_rs.project import Project, ProjectError
 from scipy import stats
 
+import _projects
+from _projects import LINEAR_CSV, LINEAR_MODEL, project_text, uncertainty
+
 EXAMPLES = Path(edmf_rs.__file__).parent / "examples" / "projects"
 
-# A linear model g(a, b) = [a, b] @ A of four sensors; the truth is a = b = 1.
+# The linear model g(a, b) = [a, b] @ A of four sensors; the truth is a = b = 1.
 A = np.array([[1.0, 2.0, 0.5, -1.0], [0.3, -0.2, 1.5, 0.8]])
-MODEL = textwrap.dedent("""
-    import numpy as np
-    A = np.array([[1.0, 2.0, 0.5, -1.0], [0.3, -0.2, 1.5, 0.8]])
-    def predict(theta, scale=1.0):
-        return scale * theta @ A
-    def three_columns(theta):
-        return theta @ A[:, :3]
+MODEL = LINEAR_MODEL + textwrap.dedent("""
     def nan_above(theta, limit=1.5):
         out = theta @ A
         out[theta[:, 0] > limit, 0] = np.nan
         return out
     not_callable = 3
 """)
-CSV = "sensor,type,value\nS1,deflection,1.3\nS2,deflection,1.8\nS3,strain,2.0\nS4,strain,-0.2\n"
+CSV = LINEAR_CSV
 Y = np.array([1.3, 1.8, 2.0, -0.2])
-BASE = textwrap.dedent("""
-    [identification]
-    name = "linear"
-    phi = 0.95
-
-    [parameters.a]
-    low = 0.0
-    high = 2.0
-
-    [parameters.b]
-    low = 0.0
-    high = 2.0
-
-    [sampling]
-    method = "grid"
-    points = { a = 21, b = 21 }
-
-    [model]
-    function = "lin_model:predict"
-
-    [measurements]
-    file = "meas.csv"
-
-    [[uncertainty]]
-    name = "model"
-    kind = "model"
-    distribution = "normal"
-    mean = 0.1
-    sd = 0.3
-
-    [[uncertainty]]
-    name = "noise"
-    kind = "measurement"
-    distribution = "normal"
-    sd = 0.4
-""")
+TABLES = dict(identification={"name": "linear", "phi": 0.95}, parameters={"a": (0.0, 2.0), "b": (0.0, 2.0)},
+              sampling={"method": "grid", "points": {"a": 21, "b": 21}}, model={"function": "lin_model:predict"},
+              measurements={"file": "meas.csv"})
+NOISE = uncertainty(name="noise", kind="measurement", distribution="normal", sd=0.4)
+BASE = project_text(**TABLES) + uncertainty(name="model", kind="model", distribution="normal", mean=0.1, sd=0.3) + NOISE
 
 
 def write_project(folder: Path, toml: str = BASE, csv: str = CSV, name: str = "lin.toml") -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "lin_model.py").write_text(MODEL)
-    (folder / "meas.csv").write_text(csv)
-    path = folder / name
-    path.write_text(toml)
-    return path
-
-
-def uncertainty(**kw) -> str:
-    lines = "\n".join(f"{k} = {json.dumps(v) if not isinstance(v, dict) else '{ type = ' + json.dumps(v['type']) + ' }'}"
-                      for k, v in kw.items())
-    return "\n[[uncertainty]]\n" + lines + "\n"
+    return _projects.write_project(folder, toml, modules={"lin_model": MODEL}, csv=csv, name=name)
 
 
 def with_sources(*sources: str) -> str:
     """BASE with its [[uncertainty]] tables replaced by ``sources``."""
-    return BASE[:BASE.index("[[uncertainty]]")] + "".join(sources)
+    return project_text(**TABLES) + "".join(sources)
 
 
 # --- validation: one clear message naming the file and the key ------------------------------------
@@ -175,9 +130,6 @@ def test_model_returning_the_wrong_shape_or_nan(tmp_path):
 
 def combined(tmp_path, *sources):
     return Project.from_toml(write_project(tmp_path, with_sources(*sources))).combined_uncertainty()
-
-
-NOISE = uncertainty(name="noise", kind="measurement", distribution="normal", sd=0.4)
 
 
 def test_normal_absolute_all_sensors_is_exact(tmp_path):

@@ -3,7 +3,6 @@ fields, decimal commas, encodings, FIFOs, phi's range, read-only theta,
 precomputed predictions streamed in chunks."""
 
 import os
-import textwrap
 
 import edmf_rs
 import numpy as np
@@ -14,38 +13,17 @@ from edmf_rs.project import Project, ProjectError
 from edmf_rs.project import precomputed as precomputed_module
 from scipy import stats
 
+from _projects import project_text, write_project
+
 MODEL = "def g(theta):\n    return theta[:, :2] * [1.0, 2.0]\n"
-PROJECT = textwrap.dedent("""
-    [identification]
-    phi = 0.95
-    [parameters.a]
-    low = 0.0
-    high = 1.0
-    [parameters.b]
-    low = 0.0
-    high = 1.0
-    [sampling]
-    method = "grid"
-    points = { a = 11, b = 11 }
-    [model]
-    function = "m:g"
-    [measurements]
-    file = "meas.csv"
-    [[uncertainty]]
-    name = "noise"
-    kind = "measurement"
-    distribution = "normal"
-    sd = 0.05
-""")
+PROJECT = project_text(identification={"phi": 0.95}, parameters={"a": (0.0, 1.0), "b": (0.0, 1.0)},
+                       sampling={"method": "grid", "points": {"a": 11, "b": 11}}, model={"function": "m:g"},
+                       measurements={"file": "meas.csv"},
+                       uncertainty=[{"name": "noise", "kind": "measurement", "distribution": "normal", "sd": 0.05}])
 
 
 def write(tmp_path, csv: str | bytes, toml: str = PROJECT):
-    tmp_path.mkdir(parents=True, exist_ok=True)
-    (tmp_path / "m.py").write_text(MODEL)
-    target = tmp_path / "meas.csv"
-    target.write_bytes(csv if isinstance(csv, bytes) else csv.encode())
-    (tmp_path / "p.toml").write_text(toml)
-    return tmp_path / "p.toml"
+    return write_project(tmp_path, toml, modules={"m": MODEL}, csv=csv)
 
 
 def test_a_decimal_comma_is_refused_with_the_line(tmp_path, capsys):

@@ -4,7 +4,6 @@ model evaluations; a path that is not a store, a store of another model or
 sampling, and a project with sensors the store lacks exit with status 2."""
 
 import json
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -12,67 +11,22 @@ import pandas as pd
 import pytest
 from edmf_rs import cli
 
-MODEL = textwrap.dedent("""
-    import numpy as np
-    A = np.array([[1.0, 2.0, 0.5, -1.0], [0.3, -0.2, 1.5, 0.8]])
-    CALLS = []
-    def predict(theta, scale=1.0):
-        return scale * theta @ A
-    def three_columns(theta):
-        return theta @ A[:, :3]
-""")
-CSV4 = "sensor,type,value\nS1,deflection,1.3\nS2,deflection,1.8\nS3,strain,2.0\nS4,strain,-0.2\n"
+from _projects import LINEAR_CSV, LINEAR_MODEL, project_text, write_project
+
+CSV4 = LINEAR_CSV
 CSV3 = "sensor,type,value\nS1,deflection,1.3\nS2,deflection,1.8\nS3,strain,2.0\n"
 
 
 def project(folder: Path, *, sd: float = 0.4, n: int = 512, high: float = 2.0, function: str = "predict",
-            options: str = "", csv: str = CSV4, exclude: str = "", name: str = "lin.toml") -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "lin_model.py").write_text(MODEL)
-    (folder / "meas.csv").write_text(csv)
-    path = folder / name
-    path.write_text(textwrap.dedent(f"""
-        [identification]
-        name = "linear"
-        phi = 0.95
-
-        [parameters.a]
-        low = 0.0
-        high = {high}
-
-        [parameters.b]
-        low = 0.0
-        high = 2.0
-
-        [sampling]
-        method = "sobol"
-        n = {n}
-        seed = 3
-
-        [model]
-        function = "lin_model:{function}"
-        batch_size = 100
-        {options}
-
-        [measurements]
-        file = "meas.csv"
-        {exclude}
-
-        [[uncertainty]]
-        name = "model"
-        kind = "model"
-        distribution = "normal"
-        mean = 0.1
-        sd = 0.3
-
-        [[uncertainty]]
-        name = "noise"
-        kind = "measurement"
-        distribution = "uniform"
-        low = -{sd}
-        high = {sd}
-    """))
-    return path
+            options: dict | None = None, csv: str = CSV4, exclude: tuple = (), name: str = "lin.toml") -> Path:
+    text = project_text(
+        identification={"name": "linear", "phi": 0.95}, parameters={"a": (0.0, high), "b": (0.0, 2.0)},
+        sampling={"method": "sobol", "n": n, "seed": 3},
+        model={"function": f"lin_model:{function}", "batch_size": 100, **({"options": options} if options else {})},
+        measurements={"file": "meas.csv", **({"exclude": list(exclude)} if exclude else {})},
+        uncertainty=[{"name": "model", "kind": "model", "distribution": "normal", "mean": 0.1, "sd": 0.3},
+                     {"name": "noise", "kind": "measurement", "distribution": "uniform", "low": -sd, "high": sd}])
+    return write_project(folder, text, modules={"lin_model": LINEAR_MODEL}, csv=csv, name=name)
 
 
 def run(*args) -> int:
@@ -99,7 +53,7 @@ def test_falsify_from_the_store_equals_a_fresh_run_with_zero_evaluations(tmp_pat
     assert run("run", str(first), "--out", str(tmp_path / "run1")) == 0
     assert summary(tmp_path / "run1")["model_evaluations"] == 512
     # another uncertainty source or an excluded sensor: a fresh run of the changed project ...
-    changed = {"sd": {"sd": 0.25}, "exclude": {"exclude": 'exclude = ["S3"]'}}[change]
+    changed = {"sd": {"sd": 0.25}, "exclude": {"exclude": ["S3"]}}[change]
     project(tmp_path / "p", **changed)
     assert run("run", str(first), "--out", str(tmp_path / "fresh")) == 0
     # ... equals the falsification from the first run's store, which evaluates nothing
@@ -138,7 +92,7 @@ def test_bad_stores_exit_2_naming_the_file_and_what_was_expected(tmp_path, capsy
     err = refused(capsys, "falsify", str(tmp_path / "empty"), "--project", str(p), *out)
     assert "empty: not a prediction store: expected a folder holding manifest.json" in err
 
-    other = project(tmp_path / "q", options="options = { scale = 2.0 }")
+    other = project(tmp_path / "q", options={"scale": 2.0})
     err = refused(capsys, "falsify", str(tmp_path / "run1"), "--project", str(other), *out)
     assert "holds another model" in err and "lin_model:predict" in err and "expected the model of lin.toml" in err
 

@@ -12,6 +12,8 @@ from edmf_rs.project.report import plots
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from scipy import stats
 
+from _projects import project_text, write_project
+
 MODEL = textwrap.dedent("""
     import numpy as np
     def g(theta):
@@ -21,35 +23,13 @@ MODEL = textwrap.dedent("""
 
 
 def project(tmp_path, y=(2.0, 0.0, 1.0), names=("D$1", "R_2$", "$x")):
-    (tmp_path / "big.py").write_text(MODEL)
+    text = project_text(
+        parameters={"E": {"low": 20e3, "high": 50e3, "unit": "MPa"}, "K": {"low": 1e10, "high": 1e14, "scale": "log"},
+                    "c": (1e-6, 3e-6)},
+        sampling={"method": "sobol", "n": 1024}, model={"function": "big:g"}, measurements={"file": "meas.csv"},
+        uncertainty=[{"name": "noise", "kind": "measurement", "distribution": "normal", "sd": 0.2}])
     rows = "".join(f"{n},{v}\n" for n, v in zip(names, y))
-    (tmp_path / "meas.csv").write_text("sensor,value\n" + rows)
-    (tmp_path / "p.toml").write_text(textwrap.dedent("""
-        [parameters.E]
-        low = 20e3
-        high = 50e3
-        unit = "MPa"
-        [parameters.K]
-        low = 1e10
-        high = 1e14
-        scale = "log"
-        [parameters.c]
-        low = 1e-6
-        high = 3e-6
-        [sampling]
-        method = "sobol"
-        n = 1024
-        [model]
-        function = "big:g"
-        [measurements]
-        file = "meas.csv"
-        [[uncertainty]]
-        name = "noise"
-        kind = "measurement"
-        distribution = "normal"
-        sd = 0.2
-    """))
-    return Project.from_toml(tmp_path / "p.toml")
+    return Project.from_toml(write_project(tmp_path, text, modules={"big": MODEL}, csv="sensor,value\n" + rows))
 
 
 def overlapping(labels, renderer) -> list:

@@ -12,6 +12,8 @@ from edmf_rs.project import Project, ProjectError
 from edmf_rs.project.errors import UserCodeError
 from edmf_rs.project.plan import RunTooLarge
 
+from _projects import project_text, write_project
+
 MODEL = textwrap.dedent("""
     import sys
     from pathlib import Path
@@ -48,35 +50,15 @@ MODEL = textwrap.dedent("""
     def q_wrong(theta):
         return np.zeros((len(theta), 2))
 """)
-PROJECT = textwrap.dedent("""
-    [parameters.a]
-    low = 0.0
-    high = 2.0
-    [parameters.b]
-    low = 0.0
-    high = 2.0
-    [sampling]
-    method = "grid"
-    points = { a = 21, b = 21 }
-    [model]
-    function = "m:FUNC"
-    batch_size = 100
-    [measurements]
-    file = "meas.csv"
-    [[uncertainty]]
-    name = "noise"
-    kind = "measurement"
-    distribution = "normal"
-    sd = 0.5
-""")
+PROJECT = project_text(parameters={"a": (0.0, 2.0), "b": (0.0, 2.0)},
+                       sampling={"method": "grid", "points": {"a": 21, "b": 21}},
+                       model={"function": "m:FUNC", "batch_size": 100}, measurements={"file": "meas.csv"},
+                       uncertainty=[{"name": "noise", "kind": "measurement", "distribution": "normal", "sd": 0.5}])
 
 
 def project(tmp_path: Path, func: str = "fine", extra: str = "") -> Path:
-    (tmp_path / "m.py").write_text(MODEL)
-    (tmp_path / "meas.csv").write_text("sensor,value\nS1,1.0\nS2,1.0\n")
-    path = tmp_path / "p.toml"
-    path.write_text(PROJECT.replace("FUNC", func) + extra)
-    return path
+    return write_project(tmp_path, PROJECT.replace("FUNC", func) + extra, modules={"m": MODEL},
+                         csv="sensor,value\nS1,1.0\nS2,1.0\n")
 
 
 def run(*args) -> subprocess.CompletedProcess:

@@ -8,6 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import _projects
+from _projects import toml_value
+
 A = np.array([[1.0, 2.0, 0.5, -1.0], [0.3, -0.2, 1.5, 0.8]])
 SENSORS = ("S1", "S2", "S3", "S4")
 
@@ -75,45 +78,18 @@ PARSER = textwrap.dedent("""
 
 def project_text(model: str, *, n: int = 64, sd: float = 0.3, exclude=(), extra_model: str = "") -> str:
     """A project file: a, b in [0, 2], Sobol' n instances, measurements from a = b = 1."""
-    return textwrap.dedent(f"""
-        [identification]
-        name = "stand-in"
-        phi = 0.95
-
-        [parameters.a]
-        low = 0.0
-        high = 2.0
-
-        [parameters.b]
-        low = 0.0
-        high = 2.0
-
-        [sampling]
-        method = "sobol"
-        n = {n}
-        seed = 3
-
-        [model]
-        {model}
-        {extra_model}
-
-        [measurements]
-        file = "meas.csv"
-        exclude = {list(exclude)!r}
-
-        [[uncertainty]]
-        name = "model"
-        kind = "model"
-        distribution = "normal"
-        sd = {sd}
-    """).replace("'", '"')
+    return _projects.project_text(
+        identification={"name": "stand-in", "phi": 0.95}, parameters={"a": (0.0, 2.0), "b": (0.0, 2.0)},
+        sampling={"method": "sobol", "n": n, "seed": 3}, model=f"{model}\n{extra_model}".replace("'", '"'),
+        measurements={"file": "meas.csv", "exclude": list(exclude)},
+        uncertainty=[{"name": "model", "kind": "model", "distribution": "normal", "sd": sd}])
 
 
 def command_model(mode: str = "ok", fmt: str = "csv", **keys) -> str:
     """The [model] lines for the stand-in solver."""
     output = "results.json" if fmt == "json" else "results.csv"
-    lines = [f'command = [{sys.executable!r}, "{{solver}}", "{mode}", "{fmt}"]'.replace("'", '"'),
-             'files = ["deck.txt"]', f'output = {{ file = "{output}" }}']
+    lines = [f"command = {toml_value([sys.executable, '{solver}', mode, fmt])}", 'files = ["deck.txt"]',
+             f"output = {toml_value({'file': output})}"]
     lines += [f"{k} = {v}" for k, v in keys.items()]
     return "\n".join(lines)
 
@@ -132,6 +108,4 @@ def folder(tmp_path: Path) -> Path:
 
 def write_project(folder: Path, model: str, name: str = "p.toml", **kw) -> Path:
     model = model.replace("{solver}", str(folder / "solver.py"))
-    path = folder / name
-    path.write_text(project_text(model, **kw))
-    return path
+    return _projects.write_project(folder, project_text(model, **kw), name=name)

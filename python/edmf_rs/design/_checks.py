@@ -30,19 +30,20 @@ def predictions_array(predictions) -> np.ndarray:
 
 
 def widths_vector(widths, n_locations: int) -> np.ndarray:
-    w = _vector(widths, "widths", n_locations)
-    bad = np.flatnonzero(~(np.isfinite(w) & (w > 0)))
-    if bad.size:
-        raise ValueError(f"widths: expected finite widths > 0, got {w[bad[0]]} at location {bad[0]}")
-    return w
+    return _positive_vector(widths, "widths", n_locations)
 
 
 def costs_vector(costs, n_locations: int) -> np.ndarray:
-    c = _vector(costs, "costs", n_locations)
-    bad = np.flatnonzero(~(np.isfinite(c) & (c > 0)))
+    return _positive_vector(costs, "costs", n_locations)
+
+
+def _positive_vector(values, name: str, n: int) -> np.ndarray:
+    """One finite value > 0 per location; ``name`` (plural) names the argument and the values."""
+    v = _vector(values, name, n)
+    bad = np.flatnonzero(~(np.isfinite(v) & (v > 0)))
     if bad.size:
-        raise ValueError(f"costs: expected finite costs > 0, got {c[bad[0]]} at location {bad[0]}")
-    return c
+        raise ValueError(f"{name}: expected finite {name} > 0, got {v[bad[0]]} at location {bad[0]}")
+    return v
 
 
 def _vector(values, name: str, n: int) -> np.ndarray:

@@ -29,20 +29,18 @@ from __future__ import annotations
 
 import csv
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..engine.sampling import Sampling
-from ..engine.thresholds import CORRECTIONS
 from ..engine.uncertainty import CombinedUncertainty
 from ..project.inputs import import_function
+from ..project.identification import IdentificationTable, identification, load_toml
 from ..project.schema import (
     ProjectError,
     Sensor,
-    Table,
     _model,
     _parameters,
     _sampling,
@@ -67,16 +65,9 @@ class Candidate:
 
 
 @dataclass(frozen=True)
-class DesignProject:
+class DesignProject(IdentificationTable):
     """A checked design project (see the module docstring)."""
 
-    file: Path
-    name: str
-    description: str
-    phi: float
-    correction: str
-    n_samples: int
-    seed: int
     sampling: Sampling | None
     candidates: tuple[Candidate, ...]
     uncertainty: tuple
@@ -183,23 +174,9 @@ def read_design_project(path: str | Path) -> DesignProject:
     """Reads and checks a design project file; raises ProjectError naming the file and key."""
     path = Path(path)
     label = str(path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProjectError(f"{label}: invalid TOML: {exc}") from None
-    except (FileNotFoundError, IsADirectoryError):
-        raise ProjectError(f"{label}: no such project file") from None
-    root = Table(label, "", data)
+    root = load_toml(path)
     root.check_keys(TOP_LEVEL)
-    ident = root.table("identification", {})
-    ident.check_keys(("name", "description", "phi", "correction", "n_samples", "seed"))
-    phi = ident.get("phi", "number", 0.95, what="a probability in (0, 1)")
-    if not 0.0 < phi < 1.0:
-        raise ident.error("phi", "a probability in (0, 1)", phi)
-    n_samples = ident.get("n_samples", "int", 200_000, what="a number of Monte Carlo samples >= 1000")
-    if n_samples < 1000:
-        raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
+    ident = identification(root, path, phi_ok=lambda phi: 0.0 < phi < 1.0, phi_what="a probability in (0, 1)")
     t = root.table("design")
     t.check_keys(("candidates", "k", "budget", "tolerance", "n_simulations", "fixed", "max_per_type", "predictions",
                   "columns"))
@@ -245,9 +222,7 @@ def read_design_project(path: str | Path) -> DesignProject:
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise t.error("max_per_type", f"a number of sensors >= 0 for {key!r}", value)
     return DesignProject(
-        file=path, name=ident.get("name", "str", path.stem), description=ident.get("description", "str", ""),
-        phi=phi, correction=ident.get("correction", "choice", "sidak", choices=CORRECTIONS),
-        n_samples=n_samples, seed=ident.get("seed", "int", 0), sampling=sampling, candidates=candidates,
+        **ident, sampling=sampling, candidates=candidates,
         uncertainty=sources, model_function=function, model_options=model.options if model else {},
         batch_size=model.batch_size if model else 0, k=k, budget=budget, tolerance=tolerance, n_simulations=n_sim,
         fixed=tuple(index[f] for f in fixed_names), max_per_type=max_per_type, predictions_file=predictions_file,

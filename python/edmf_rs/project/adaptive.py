@@ -127,7 +127,7 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
     from ..engine.thresholds import threshold_bounds
     from .candidates import CandidateWriter
     from .diagnostics import SensitivityTracker, leave_one_out
-    from .evaluation import discount_failed_runs
+    from .evaluation import checked_model, discount_failed_runs
     from .qoi import prognosis_of
     from .result import PlotSample
     from .schema import ProjectError
@@ -138,7 +138,7 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
     thresholds = threshold_bounds(combined, project.phi, project.correction)
     evaluator = adaptive_evaluator(project, out, workers)
     try:
-        model = project._checked_model(evaluator)  # outputs matched to the sensors by name, failures named
+        model = checked_model(project, evaluator)  # outputs matched to the sensors by name, failures named
         result = adaptive_falsify(model, project.parameters, project.measured, thresholds, budget=s.budget,
                                   n_initial=s.n_initial, wave_size=s.wave_size, n_screen=s.n_screen, c=s.c,
                                   seed=s.seed, basis=s.basis, nan="falsify" if project.command else project.model.nan)

@@ -13,12 +13,18 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..engine.sensors import SensorMapping, SensorMatch, SensorMismatch
 from .errors import call_user_code
+from .precomputed import precomputed_instances
 from .schema import ProjectError
+
+if TYPE_CHECKING:
+    from ..simulators import Evaluator
+    from .run import Project
 
 
 class CheckedModel:
@@ -94,6 +100,30 @@ class CheckedModel:
         self.offset += theta.shape[0]
         self.batch += 1
         return out
+
+
+def checked_model(project: Project, evaluator: Evaluator | None = None) -> CheckedModel:
+    """The project's model (or the evaluator of external runs) with its outputs matched to the sensors by name."""
+    positional, source = project.positional_sensors
+    if evaluator is not None:  # it returns every sensor's column, matched by name, in the measurements' order
+        function, options = evaluator, {}
+        positional, source = evaluator.sensors, "the measurements' order"
+    else:
+        function, options = project.model_function, project.model.options
+    what = (f"command = {list(project.command.spec.command)}" if project.command
+            else f"function = '{project.model.function}'")
+    return CheckedModel(function, options, sensors=project.sensor_names,
+                        positional=positional, positional_source=source,
+                        parameter_names=project.parameter_names,
+                        nan="falsify" if project.command else project.model.nan, where=f"{project.file}: model.{what}")
+
+
+def model_instances(project: Project, evaluator: Evaluator | None = None):
+    """(model callable, parameters, N) for falsify_model: the checked model and the
+    sampling's batches, or the precomputed predictions."""
+    if project.model_function is not None or evaluator is not None:
+        return checked_model(project, evaluator), project.sampling.batches(project.model.batch_size), project.sampling.n
+    return precomputed_instances(project)
 
 
 def discount_failed_runs(result, external: bool):

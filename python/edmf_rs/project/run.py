@@ -21,20 +21,16 @@ from ..engine.borderline import BorderlineCounter
 from ..engine.sampling import Parameter, Sampling
 from ..engine.thresholds import threshold_bounds
 from ..engine.uncertainty import CombinedUncertainty
-from ..simulators import CommandModel, Evaluator
+from ..simulators import CommandModel
 from .candidates import CandidateWriter
 from .diagnostics import SensitivityTracker, leave_one_out
-from .evaluation import CheckedModel, discount_failed_runs
+from .evaluation import checked_model, discount_failed_runs, model_instances
 from .external import command_model, make_evaluator
+from .identification import IdentificationTable, identification_fields
 from .inputs import check_model_sensors, check_sensors, import_function
 from .measurements import read_measurements
 from .plan import Plan, check_estimate
-from .precomputed import (
-    check_precomputed,
-    count_rows,
-    first_parameters,
-    precomputed_instances,
-)
+from .precomputed import check_precomputed, count_rows, first_parameters
 from .progress import Progress
 from .qoi import PrognosisStream, call_prognosis
 from .result import Identification, PlotSample
@@ -46,7 +42,7 @@ __all__ = ["Project", "ProjectError"]
 
 
 @dataclass(frozen=True, eq=False)
-class Project:
+class Project(IdentificationTable):
     """A checked project: parameters and their sampling, model, sensors, uncertainty sources.
 
     Build it with `from_toml` from a project file (the format is on the
@@ -87,13 +83,6 @@ class Project:
     (('E',), 10, 0.95)
     """
 
-    file: Path
-    name: str
-    description: str
-    phi: float
-    correction: str
-    n_samples: int
-    seed: int
     parameters: tuple[Parameter, ...]
     sampling: Sampling | None
     sensors: tuple[Sensor, ...]
@@ -168,9 +157,7 @@ class Project:
         prognosis = tuple((p, import_function(p.function, p.path, label, f"{p.key}.function"))
                           for p in spec.prognosis)
         return cls(
-            file=spec.file, name=spec.name, description=spec.description, phi=spec.phi,
-            correction=spec.correction, n_samples=spec.n_samples, seed=spec.seed,
-            parameters=spec.parameters, sampling=spec.sampling, sensors=sensors,
+            **identification_fields(spec), parameters=spec.parameters, sampling=spec.sampling, sensors=sensors,
             excluded=tuple(s for i, s in enumerate(all_sensors) if i not in kept),
             uncertainty=resolve_sources(spec.uncertainty, all_sensors, kept, label),
             model=spec.model, model_function=model_function, n_model_columns=len(all_sensors), kept=kept,
@@ -283,7 +270,7 @@ class Project:
             theta = self.sampling.head(2)
         elif self.model_function is not None:
             theta = self.sampling.head(2)
-            model = self._checked_model()
+            model = checked_model(self)
             model(theta)
             seconds = model.seconds / max(model.instances, 1)
         elif self.command is not None:  # checked before it runs (program, templates, parser); each run costs
@@ -377,7 +364,7 @@ class Project:
                 evaluator.close()
 
     def _run(self, start, combined, thresholds, evaluator, progress, max_seconds, out) -> Identification:
-        model, parameters, n_instances = self._instances(evaluator)
+        model, parameters, n_instances = model_instances(self, evaluator)
         tracker = SensitivityTracker(thresholds, combined, self.measured)
         sample = PlotSample(n_instances)
         borderline = BorderlineCounter(thresholds, self.measured)
@@ -427,24 +414,3 @@ class Project:
             sample=sample.finish(), elapsed=time.perf_counter() - start, borderline=borderline.count,
             sensor_mapping=mapping, evaluation=evaluator.stats() if evaluator else None,
         )
-
-    def _instances(self, evaluator: Evaluator | None = None):
-        """(model callable, parameters, N) for falsify_model."""
-        if self.model_function is not None or evaluator is not None:
-            return self._checked_model(evaluator), self.sampling.batches(self.model.batch_size), self.sampling.n
-        return precomputed_instances(self)
-
-    def _checked_model(self, evaluator: Evaluator | None = None) -> CheckedModel:
-        """The model (or the evaluator of external runs) with its outputs matched to the sensors by name."""
-        positional, source = self.positional_sensors
-        if evaluator is not None:  # it returns every sensor's column, matched by name, in the measurements' order
-            function, options = evaluator, {}
-            positional, source = evaluator.sensors, "the measurements' order"
-        else:
-            function, options = self.model_function, self.model.options
-        what = f"command = {list(self.command.spec.command)}" if self.command else f"function = '{self.model.function}'"
-        return CheckedModel(function, options, sensors=self.sensor_names,
-                            positional=positional, positional_source=source,
-                            parameter_names=self.parameter_names,
-                            nan="falsify" if self.command else self.model.nan, where=f"{self.file}: model.{what}")
-

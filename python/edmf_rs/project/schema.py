@@ -11,24 +11,16 @@ imports the model (see :mod:`edmf_rs.project.inputs`).
 from __future__ import annotations
 
 import codecs
-import os
-import stat
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..engine.sampling import METHODS, Parameter, Sampling, grid, latin_hypercube, sobol
-from ..engine.thresholds import CORRECTIONS
 from ..simulators.command import CommandSpec
+from .identification import IdentificationTable, identification, load_toml
 from .table import ProjectError, Table
 
 __all__ = ["ModelSpec", "PrognosisSpec", "ProjectError", "ProjectSpec", "Sensor", "UncertaintySpec", "read_spec"]
 
-#: The target identification probabilities a project may ask for: below 0.5 the
-#: true model is more likely falsified than not; above 1 - 1e-9 the thresholds
-#: rest on tails no uncertainty model describes.
-PHI_LOW, PHI_HIGH = 0.5, 1.0 - 1e-9
-PHI_RANGE = "a target identification probability between 0.5 and 0.999999999 (typically 0.95)"
 DISTRIBUTIONS = {"normal": ("mean", "sd"), "uniform": ("low", "high")}
 
 
@@ -92,16 +84,9 @@ class PrognosisSpec:
 
 
 @dataclass(frozen=True)
-class ProjectSpec:
+class ProjectSpec(IdentificationTable):
     """The project file, checked on its own (other files not read yet)."""
 
-    file: Path
-    name: str
-    description: str
-    phi: float
-    correction: str
-    n_samples: int
-    seed: int
     parameters: tuple[Parameter, ...]
     sampling: Sampling | None
     model: ModelSpec
@@ -122,40 +107,10 @@ def read_spec(path: str | Path) -> ProjectSpec:
     """Reads and checks a project file; raises :class:`ProjectError` on the first problem."""
     path = Path(path)
     label = str(path)
-    try:
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        raise ProjectError(f"{label}: no such project file (looked in {path.parent.resolve()})") from None
-    except OSError as exc:
-        raise ProjectError(f"{label}: cannot read the project file: {exc.strerror}") from None
-    if stat.S_ISDIR(mode):
-        raise ProjectError(f"{label}: expected a project file (TOML), got a directory")
-    if not stat.S_ISREG(mode):
-        raise ProjectError(f"{label}: expected a project file (TOML), got a FIFO or device (not a regular file)")
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProjectError(f"{label}: invalid TOML: {exc}") from None
-    except UnicodeDecodeError as exc:
-        raise ProjectError(f"{label}: expected UTF-8 text (TOML), got byte 0x{exc.object[exc.start]:02x} "
-                           f"at offset {exc.start}") from None
-    except FileNotFoundError:
-        raise ProjectError(f"{label}: no such project file") from None
-    except IsADirectoryError:
-        raise ProjectError(f"{label}: expected a project file (TOML), got a directory") from None
-    root = Table(label, "", data)
+    root = load_toml(path)
     root.check_keys(TOP_LEVEL)
     base = path.parent
-
-    ident = root.table("identification", {})
-    ident.check_keys(("name", "description", "phi", "correction", "n_samples", "seed"))
-    phi = ident.get("phi", "number", 0.95, what=PHI_RANGE)
-    if not PHI_LOW <= phi <= PHI_HIGH:
-        raise ident.error("phi", PHI_RANGE, phi)
-    n_samples = ident.get("n_samples", "int", 200_000, what="a number of Monte Carlo samples >= 1000")
-    if n_samples < 1000:
-        raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
+    ident = identification(root, path)
 
     parameters = _parameters(root)
     model = _compute(root, _model(root, base))
@@ -172,14 +127,11 @@ def read_spec(path: str | Path) -> ProjectSpec:
 
     measurements_file, inline, exclude, decimal, encoding = _measurements(root, base)
     return ProjectSpec(
-        file=path, name=ident.get("name", "str", path.stem),
-        description=ident.get("description", "str", ""),
-        phi=phi, correction=ident.get("correction", "choice", "sidak", choices=CORRECTIONS),
-        n_samples=n_samples, seed=ident.get("seed", "int", 0),
-        parameters=parameters, sampling=sampling, model=model,
+        **ident, parameters=parameters, sampling=sampling, model=model,
         measurements_file=measurements_file, inline_sensors=inline, exclude=exclude,
         uncertainty=_uncertainty(root), prognosis=_prognosis(root, base), decimal=decimal, encoding=encoding,
     )
+
 
 
 def _parameters(root: Table) -> tuple[Parameter, ...]:
