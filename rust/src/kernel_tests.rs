@@ -3,6 +3,51 @@
 
 use super::*;
 
+/// The bit-writing kernels at `isa` against the per-row counts `want` and
+/// tally `tw` of the portable kernel: candidate bits (written from bit
+/// `offset`, in two pieces split at row `split`), counts when asked for,
+/// the same tally whether or not counts are kept, and screening's bits.
+fn check_bits<T: Prediction>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    plan: &ScreenPlan,
+    want: &[u32],
+    tw: &Tally,
+    what: &str,
+) {
+    let rows = m.rows();
+    for (offset, split) in [(0usize, 0usize), (5, rows / 2), (64, rows / 3), (67, rows)] {
+        let expect: Vec<bool> = want.iter().map(|&n| n == 0).collect();
+        let bit = |w: &[u64], i: usize| (w[(offset + i) / 64] >> ((offset + i) % 64)) & 1 == 1;
+        for keep in [false, true] {
+            let mut words = vec![0u64; (offset + rows).div_ceil(64) + 1];
+            let (mut counts, mut t) = (vec![7u32; rows], Tally::zeros(b.len()));
+            for (r0, r1) in [(0, split), (split, rows)] {
+                let mut sink = BitSink::new(&mut words, offset + r0);
+                let c = if keep { Some(&mut counts[r0..r1]) } else { None };
+                diagnose_bits_with(isa, m.slice_rows(r0, r1), b, c, &mut sink, &mut t);
+                sink.finish();
+            }
+            let got: Vec<bool> = (0..rows).map(|i| bit(&words, i)).collect();
+            assert_eq!(got, expect, "{isa:?} {what}: diagnose bits, keep {keep}, offset {offset}");
+            assert_eq!(crate::candidates::count_bits(&words), expect.iter().filter(|&&c| c).count());
+            assert_eq!(&t, tw, "{isa:?} {what}: tally, keep {keep}");
+            if keep {
+                assert_eq!(counts, want, "{isa:?} {what}: counts");
+            }
+        }
+        let mut words = vec![0u64; (offset + rows).div_ceil(64) + 1];
+        for (r0, r1) in [(0, split), (split, rows)] {
+            let mut sink = BitSink::new(&mut words, offset + r0);
+            screen_bits_with(isa, m.slice_rows(r0, r1), b, plan, &mut sink);
+            sink.finish();
+        }
+        let got: Vec<bool> = (0..rows).map(|i| bit(&words, i)).collect();
+        assert_eq!(got, expect, "{isa:?} {what}: screen bits, offset {offset}");
+    }
+}
+
 /// Vector and portable kernels agree for every row width (lane remainders,
 /// short rows held in registers, partial blocks), with ties on the bounds,
 /// NaN and infinities, and blocks screened out of column order.
@@ -49,6 +94,12 @@ fn vector_kernels_match_portable_ones() {
             screen_with(isa, m, &b, &plan, &mut a);
             screen_with(Isa::Portable, m, &b, &plan, &mut c);
             assert_eq!(a, c, "{isa:?} screen, {k} sensors");
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64, {k} sensors"));
+            let mut tw = Tally::zeros(k);
+            diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32, {k} sensors"));
         }
         let rejected = c.iter().filter(|&&r| r > 0).count();
         assert!(
@@ -235,6 +286,7 @@ fn short_rows_match_portable_in_every_layout() {
                     let mut t = Tally::zeros(k);
                     diagnose_with(isa, *m, &b, &mut got, &mut t);
                     check(&got, &t, &format!("f64 view {v}"));
+                    check_bits(isa, *m, &b, &plan, &want, &tw, &format!("f64 view {v}, {k} sensors, {rows} rows"));
                     screen_with(isa, *m, &b, &plan, &mut got);
                     assert_eq!(got, flags, "{isa:?} screen f64 view {v}, {k} sensors");
                 }
@@ -245,6 +297,7 @@ fn short_rows_match_portable_in_every_layout() {
                     let mut t = Tally::zeros(k);
                     diagnose_with(isa, *m, &b, &mut got, &mut t);
                     assert_eq!((&got, &t), (&w32, &t32), "{isa:?} f32 view {v}, {k} sensors");
+                    check_bits(isa, *m, &b, &plan, &w32, &t32, &format!("f32 view {v}, {k} sensors, {rows} rows"));
                     screen_with(isa, *m, &b, &plan, &mut got);
                     let f32_flags: Vec<u32> = w32.iter().map(|&n| (n > 0) as u32).collect();
                     assert_eq!(got, f32_flags, "{isa:?} screen f32 view {v}, {k} sensors");
