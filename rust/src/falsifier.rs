@@ -17,6 +17,7 @@ use crate::error::{EdmfError, Result};
 use crate::kernel::{diagnose_bits_with, screen_bits_with, Isa, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use crate::thresholds::Thresholds;
+use crate::violations::Violations;
 use rayon::prelude::*;
 use rayon::ThreadPool;
 
@@ -50,7 +51,8 @@ pub struct Falsifier {
     n_instances: u64,
     tally: Tally,
     candidates: CandidateSet,
-    violations: Vec<u32>,
+    /// Per-instance counts, one to four bytes each (see `violations`).
+    violations: Violations,
     /// Per-row verdicts of the current slab, reused from slab to slab.
     scratch: Vec<u32>,
     /// Candidate bits of the current slab (`BLOCK_ROWS / 64` words a block),
@@ -91,7 +93,7 @@ impl Falsifier {
             n_instances: 0,
             tally: Tally::zeros(n_m),
             candidates: CandidateSet::new(),
-            violations: Vec::new(),
+            violations: Violations::for_sensors(n_m),
             scratch: Vec::new(),
             slab_words: Vec::new(),
             block_counts: Vec::new(),
@@ -138,13 +140,13 @@ impl Falsifier {
     }
 
     /// Rejecting-sensor count of every instance so far, if kept.
-    pub fn violations(&self) -> Option<&[u32]> {
-        self.keep_violations.then_some(&self.violations[..])
+    pub fn violations(&self) -> Result<Option<Vec<u32>>> {
+        self.keep_violations.then(|| self.violations.to_u32()).transpose()
     }
 
     /// Takes the stored per-instance counts, leaving the accumulator without them.
-    pub fn take_violations(&mut self) -> Option<Vec<u32>> {
-        self.keep_violations.then(|| std::mem::take(&mut self.violations))
+    pub fn take_violations(&mut self) -> Result<Option<Vec<u32>>> {
+        self.keep_violations.then(|| self.violations.take_u32()).transpose()
     }
 
     /// Falsifies the next `chunk` of instances (rows; one column per sensor).
@@ -285,8 +287,7 @@ impl Falsifier {
                 (Mode::Diagnose, Some(t)) => {
                     chunk_tally.add(&t);
                     if keep {
-                        reserve(&mut self.violations, out.len(), "per-instance violation counts")?;
-                        self.violations.extend_from_slice(out);
+                        self.violations.extend(out)?;
                     }
                 }
                 // Learn which sensors reject most; candidates do not depend on it.
