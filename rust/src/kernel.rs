@@ -26,6 +26,8 @@ pub trait Prediction: Copy + Send + Sync + 'static + Lanes {
     fn to_f64(self) -> f64;
     /// `[p_low, p_high]` per sensor in this type (see `acceptance`).
     fn accepted(b: &SensorBounds) -> &[Vec<Self>; 2];
+    /// The same repeated over `bounds::CYCLE` values (see `SensorBounds`).
+    fn cycled(b: &SensorBounds) -> &[Vec<Self>; 2];
 }
 
 impl Prediction for f64 {
@@ -37,6 +39,10 @@ impl Prediction for f64 {
     fn accepted(b: &SensorBounds) -> &[Vec<f64>; 2] {
         &b.accept64
     }
+    #[inline(always)]
+    fn cycled(b: &SensorBounds) -> &[Vec<f64>; 2] {
+        &b.cycle64
+    }
 }
 
 impl Prediction for f32 {
@@ -47,6 +53,10 @@ impl Prediction for f32 {
     #[inline(always)]
     fn accepted(b: &SensorBounds) -> &[Vec<f32>; 2] {
         &b.accept32
+    }
+    #[inline(always)]
+    fn cycled(b: &SensorBounds) -> &[Vec<f32>; 2] {
+        &b.cycle32
     }
 }
 

@@ -74,21 +74,16 @@ impl<T: Prediction> Periodic<T> {
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub unsafe fn new(b: &SensorBounds) -> Self {
-        let (k, w, accept) = (b.len(), T::W512, T::accepted(b));
+        let (k, w, cycle) = (b.len(), T::W512, T::cycled(b));
         let (vectors, rows) = Self::period(k).expect("a period this kernel takes");
         let full = (u32::MAX >> (32 - w)) as u32;
-        // Built once per block of rows: no allocation, no division (a
-        // division per lane cost 2 cycles per row of 5 f32).
-        let (mut low, mut high) = ([T::load512(full, accept[0].as_ptr()); MAX_VECTORS], [T::load512(full, accept[1].as_ptr()); MAX_VECTORS]);
-        let (mut lo, mut hi) = ([accept[0][0]; 16], [accept[1][0]; 16]);
-        let mut j = 0; // sensor of the lane: (v * w + l) % k
-        for v in 0..vectors {
-            for l in 0..w {
-                (lo[l], hi[l]) = (accept[0][j], accept[1][j]);
-                j = if j + 1 == k { 0 } else { j + 1 };
-            }
-            low[v] = T::load512(full, lo.as_ptr());
-            high[v] = T::load512(full, hi.as_ptr());
+        assert!(cycle[0].len() >= MAX_VECTORS * w && cycle[1].len() >= MAX_VECTORS * w);
+        // Built once per block of rows: whole-vector loads of the repeated
+        // intervals (lane `l` of vector `v` is sensor `(v * w + l) % k`).
+        let (mut low, mut high) = ([T::load512(full, cycle[0].as_ptr()); MAX_VECTORS], [T::load512(full, cycle[1].as_ptr()); MAX_VECTORS]);
+        for v in 1..vectors {
+            low[v] = T::load512(full, cycle[0].as_ptr().add(v * w));
+            high[v] = T::load512(full, cycle[1].as_ptr().add(v * w));
         }
         let (mut low_bits, mut top_bits) = (0u128, 0u128);
         for r in 0..rows {
@@ -260,13 +255,15 @@ impl<T: Prediction> Periodic<T> {
                 only_lane[v] = _mm512_mask_add_epi32(only_lane[v], s, only_lane[v], ones);
             }
         }
-        let mut lanes = [0u32; 16];
+        let (mut per, mut only) = ([0u32; 16], [0u32; 16]);
+        let mut j = 0; // sensor of lane l of vector v: (v * w + l) % k, without a division
         for v in 0..P {
-            for (counts, acc) in [(&mut t.per_sensor, per_lane[v]), (&mut t.only_by, only_lane[v])] {
-                _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, acc);
-                for (l, &c) in lanes.iter().enumerate().take(w) {
-                    counts[(v * w + l) % k] += c as u64;
-                }
+            _mm512_storeu_si512(per.as_mut_ptr() as *mut __m512i, per_lane[v]);
+            _mm512_storeu_si512(only.as_mut_ptr() as *mut __m512i, only_lane[v]);
+            for l in 0..w {
+                t.per_sensor[j] += per[l] as u64;
+                t.only_by[j] += only[l] as u64;
+                j = if j + 1 == k { 0 } else { j + 1 };
             }
         }
         t.invalid += invalid;
