@@ -316,3 +316,44 @@ fn short_rows_match_portable_in_every_layout() {
         }
     }
 }
+
+/// An acceptance interval no prediction reaches (empty for f32: a zero-width
+/// threshold between two floats) beside NaN predictions: the periodic
+/// kernel then cannot tell NaN by "outside on both sides" and must count
+/// invalid rows by the NaN test itself.
+#[test]
+fn empty_intervals_and_nan_rows_match_portable() {
+    for k in [3usize, 5, 6, 10, 12] {
+        let y: Vec<f64> = (0..k).map(|j| 0.1 + 0.25 * j as f64).collect();
+        let mut lo: Vec<f64> = vec![-0.5; k];
+        let mut hi: Vec<f64> = vec![0.5; k];
+        (lo[k / 2], hi[k / 2]) = (1e-12, 1e-12); // no f32 prediction lands on it
+        let b = SensorBounds::new(&y, &lo, &hi).unwrap();
+        assert!(!(b.accept32[0][k / 2] <= b.accept32[1][k / 2]), "an empty f32 interval");
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        let rows = 300;
+        let mut state = 0xABCD_EF01_2345_6789u64 ^ k as u64;
+        let data: Vec<f64> = (0..rows * k)
+            .map(|i| {
+                let u = crate::testing::uniform(&mut state);
+                if u < 0.03 {
+                    f64::NAN
+                } else {
+                    y[i % k] + (u - 0.5) * 1.2
+                }
+            })
+            .collect();
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let m = Matrix::row_major(&data, rows, k).unwrap();
+        let m32 = Matrix::row_major(&data32, rows, k).unwrap();
+        for isa in Isa::available() {
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+            assert!(tw.invalid > 0 && want.iter().all(|&n| n > 0), "every f32 row rejected, some NaN");
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 empty interval, {k} sensors"));
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64, {k} sensors"));
+        }
+    }
+}

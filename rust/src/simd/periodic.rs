@@ -51,6 +51,9 @@ pub struct Periodic<T: Prediction> {
     low_bits: u128,
     /// Per field: the top bit.
     top_bits: u128,
+    /// Every interval has `low <= high` (no NaN end, not empty): then a
+    /// value outside on both sides is NaN, and NaN costs no comparison.
+    proper: bool,
 }
 
 impl<T: Prediction> Periodic<T> {
@@ -90,7 +93,9 @@ impl<T: Prediction> Periodic<T> {
             low_bits |= ((1u128 << (k - 1)) - 1) << (r * k);
             top_bits |= 1u128 << (r * k + k - 1);
         }
-        Periodic { low, high, k, vectors, rows, low_bits, top_bits }
+        let accept = T::accepted(b);
+        let proper = (0..k).all(|j| accept[0][j].to_f64() <= accept[1][j].to_f64());
+        Periodic { low, high, k, vectors, rows, low_bits, top_bits, proper }
     }
 
     /// Rows per period: the caller hands the rows after the last whole period elsewhere.
@@ -108,6 +113,15 @@ impl<T: Prediction> Periodic<T> {
         let w = T::W512;
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = (0u128, 0u128);
+        if NAN && self.proper {
+            for v in 0..P {
+                let x = T::load512(full, p.add(v * w));
+                let (ge, le) = T::sides512(x, self.low[v], self.high[v]);
+                out |= ((!(ge & le) & full) as u128) << (v * w);
+                nan |= ((!(ge | le) & full) as u128) << (v * w);
+            }
+            return (out, nan);
+        }
         for v in 0..P {
             let x = T::load512(full, p.add(v * w));
             let inside = T::inside512(full, x, self.low[v], self.high[v]);
@@ -221,7 +235,10 @@ impl<T: Prediction> Periodic<T> {
         let all = u32::MAX >> (32 - rows);
         let ones = _mm512_set1_epi32(1);
         let zero = _mm512_setzero_si512();
+        // Counters of 16 values each (two f64 vectors, one f32 vector): one
+        // masked add per 16 values of the period's bit string.
         let (mut per_lane, mut only_lane) = ([zero; P], [zero; P]);
+        let chunks = (P * w).div_ceil(16);
         let mut invalid = 0u64;
         for q in 0..periods {
             let (bits, nan) = self.period_bits::<P, true>(data.as_ptr().add(q * rows * k));
@@ -249,18 +266,19 @@ impl<T: Prediction> Periodic<T> {
                 // Rare: a NaN row is never a candidate, counted once.
                 invalid += (0..rows).filter(|r| (nan >> (r * k)) as u64 & field != 0).count() as u64;
             }
-            for v in 0..P {
-                let (b, s) = ((bits >> (v * w)) as __mmask16, (single >> (v * w)) as __mmask16);
-                per_lane[v] = _mm512_mask_add_epi32(per_lane[v], b, per_lane[v], ones);
-                only_lane[v] = _mm512_mask_add_epi32(only_lane[v], s, only_lane[v], ones);
+            for c in 0..chunks {
+                let (b, s) = ((bits >> (16 * c)) as __mmask16, (single >> (16 * c)) as __mmask16);
+                per_lane[c] = _mm512_mask_add_epi32(per_lane[c], b, per_lane[c], ones);
+                only_lane[c] = _mm512_mask_add_epi32(only_lane[c], s, only_lane[c], ones);
             }
         }
         let (mut per, mut only) = ([0u32; 16], [0u32; 16]);
-        let mut j = 0; // sensor of lane l of vector v: (v * w + l) % k, without a division
-        for v in 0..P {
-            _mm512_storeu_si512(per.as_mut_ptr() as *mut __m512i, per_lane[v]);
-            _mm512_storeu_si512(only.as_mut_ptr() as *mut __m512i, only_lane[v]);
-            for l in 0..w {
+        let mut j = 0; // sensor of lane l of counter c: (16 * c + l) % k, without a division
+        for c in 0..chunks {
+            _mm512_storeu_si512(per.as_mut_ptr() as *mut __m512i, per_lane[c]);
+            _mm512_storeu_si512(only.as_mut_ptr() as *mut __m512i, only_lane[c]);
+            // The last counter of an odd number of f64 vectors has 8 values.
+            for l in 0..16.min(P * w - 16 * c) {
                 t.per_sensor[j] += per[l] as u64;
                 t.only_by[j] += only[l] as u64;
                 j = if j + 1 == k { 0 } else { j + 1 };
