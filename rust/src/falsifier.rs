@@ -314,12 +314,12 @@ type Summing<'b> = (Option<u64>, &'b mut [Part]);
 /// (`BLOCK_ROWS / 64` words a block).
 type Verdicts<'a> = (usize, &'a mut [u32], &'a mut [usize], &'a mut [u64]);
 
+/// One block's index, counts (empty when not kept), candidate count, candidate words and checksum slot.
+type BlockTask<'a> = (usize, (((&'a mut [u32], &'a mut usize), &'a mut [u64]), &'a mut Part));
+
 /// The block tasks of a slab: `task(k, rows of block k, its counts (empty
 /// when not kept), its candidate words, its checksum slot)`.
-fn blocks<'a>(
-    verdicts: Verdicts<'a>,
-    slots: &'a mut [Part],
-) -> impl IndexedParallelIterator<Item = (usize, (((&'a mut [u32], &'a mut usize), &'a mut [u64]), &'a mut Part))> {
+fn blocks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part]) -> impl IndexedParallelIterator<Item = BlockTask<'a>> {
     let (rows, out, counts, words) = verdicts;
     // Counts, when kept, one block a task like the rest; else empty slices.
     let per_block = if out.is_empty() { 0 } else { BLOCK_ROWS };

@@ -76,7 +76,11 @@ impl Violations {
     pub fn to_u32(&self) -> Result<Vec<u32>> {
         let mut out = Vec::new();
         reserve(&mut out, self.len(), "per-instance violation counts")?;
-        each!(self, v => out.extend(v.iter().map(|&c| c as u32)));
+        match self {
+            Violations::U8(v) => out.extend(v.iter().map(|&c| u32::from(c))),
+            Violations::U16(v) => out.extend(v.iter().map(|&c| u32::from(c))),
+            Violations::U32(v) => out.extend_from_slice(v),
+        }
         Ok(out)
     }
 

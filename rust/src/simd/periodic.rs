@@ -70,7 +70,7 @@ impl<T: Prediction> Periodic<T> {
     /// as whole vectors already) and at most `MAX_VECTORS` vectors.
     pub fn period(k: usize) -> Option<(usize, usize)> {
         let w = T::W512;
-        if k == 0 || k % w == 0 {
+        if k == 0 || k.is_multiple_of(w) {
             return None;
         }
         let lcm = k / gcd(k, w) * w;
@@ -87,7 +87,7 @@ impl<T: Prediction> Periodic<T> {
     pub unsafe fn new(b: &SensorBounds) -> Self {
         let (k, w, cycle) = (b.len(), T::W512, T::cycled(b));
         let (vectors, rows) = Self::period(k).expect("a period this kernel takes");
-        let full = (u32::MAX >> (32 - w)) as u32;
+        let full = u32::MAX >> (32 - w);
         assert!(cycle[0].len() >= MAX_VECTORS * w && cycle[1].len() >= MAX_VECTORS * w);
         // Built once per block of rows: whole-vector loads of the repeated
         // intervals (lane `l` of vector `v` is sensor `(v * w + l) % k`).
