@@ -20,7 +20,17 @@ pub struct SensorBounds {
     /// loads of them never run past the end.
     pub(crate) accept64: [Vec<f64>; 2],
     pub(crate) accept32: [Vec<f32>; 2],
+    /// The acceptance intervals repeated sensor after sensor over
+    /// [`CYCLE`] values (value `i` is sensor `i % n`): the lane pattern of
+    /// short rows stored back to back, loaded as whole vectors by the
+    /// periodic kernel instead of being assembled lane by lane per block.
+    pub(crate) cycle64: [Vec<f64>; 2],
+    pub(crate) cycle32: [Vec<f32>; 2],
 }
+
+/// Values of the repeated acceptance intervals: the longest period of the
+/// periodic kernel (eight vectors of sixteen f32).
+pub const CYCLE: usize = 128;
 
 impl SensorBounds {
     /// Bounds of every sensor; all values must be finite, which makes the
@@ -44,7 +54,15 @@ impl SensorBounds {
             (accept64[0][j], accept64[1][j]) = accepted_f64(measured[j], low[j], high[j]);
             (accept32[0][j], accept32[1][j]) = accepted_f32(measured[j], low[j], high[j]);
         }
+        let cycle = |v: &[f64]| (0..CYCLE).map(|i| v[i % n.max(1)]).collect::<Vec<_>>();
+        let cycle32 = |v: &[f32]| (0..CYCLE).map(|i| v[i % n.max(1)]).collect::<Vec<_>>();
+        let (cycle64, cycle32) = (
+            [cycle(&accept64[0]), cycle(&accept64[1])],
+            [cycle32(&accept32[0]), cycle32(&accept32[1])],
+        );
         Ok(SensorBounds {
+            cycle64,
+            cycle32,
             measured: measured.to_vec(),
             low: low.to_vec(),
             high: high.to_vec(),

@@ -206,6 +206,65 @@ pub(crate) fn reserve<T>(v: &mut Vec<T>, more: usize, what: &'static str) -> Res
         .map_err(|_| EdmfError::OutOfMemory { what, elements: more })
 }
 
+/// Candidate bits written by the kernels as they go, one bit per row (set =
+/// candidate), from bit `offset` of `words` on: the kernels know a group of
+/// rows' verdicts as bits already (their mask registers), so no value per row
+/// is written and read back. The bits are ORed in: they must be 0 beforehand.
+/// Call [`BitSink::finish`] after the last push.
+pub struct BitSink<'a> {
+    words: &'a mut [u64],
+    /// Word being filled.
+    word: usize,
+    /// Its bits so far (from bit 0 of the word).
+    acc: u64,
+    /// Bits of `acc` in use, < 64.
+    fill: u32,
+}
+
+impl<'a> BitSink<'a> {
+    pub fn new(words: &'a mut [u64], offset: usize) -> Self {
+        BitSink { words, word: offset / 64, acc: 0, fill: (offset % 64) as u32 }
+    }
+
+    /// Appends the `n` (1..=64) low bits of `bits` (bits above them are 0).
+    #[inline(always)]
+    pub fn push(&mut self, bits: u64, n: u32) {
+        debug_assert!((1..=64).contains(&n) && (n == 64 || bits >> n == 0));
+        self.acc |= bits << self.fill;
+        let fill = self.fill + n;
+        if fill >= 64 {
+            self.words[self.word] |= self.acc;
+            self.word += 1;
+            // The bits that did not fit (none if the word was empty).
+            self.acc = if self.fill == 0 { 0 } else { bits >> (64 - self.fill) };
+            self.fill = fill - 64;
+        } else {
+            self.fill = fill;
+        }
+    }
+
+    /// Appends one bit per verdict of `verdicts` (set iff the verdict is 0).
+    pub fn push_verdicts(&mut self, verdicts: &[u32]) {
+        let mut w = [0u64; 1];
+        for chunk in verdicts.chunks(64) {
+            verdict_words(chunk, &mut w);
+            self.push(w[0], chunk.len() as u32);
+        }
+    }
+
+    /// Writes the last, partial word.
+    pub fn finish(self) {
+        if self.fill > 0 {
+            self.words[self.word] |= self.acc;
+        }
+    }
+}
+
+/// Number of candidates (set bits) of `words`.
+pub fn count_bits(words: &[u64]) -> usize {
+    words.iter().map(|w| w.count_ones() as usize).sum()
+}
+
 /// Writes one bit per verdict (bit set = candidate, `v == 0`) into `words`
 /// (`ceil(verdicts / 64)` words, bits past the end 0); returns the number of
 /// candidates. No branch per row: the block was just written, it is in L1.
@@ -332,5 +391,35 @@ mod tests {
             assert_eq!(verdict_words_portable(&v[..len], &mut p), n);
             assert_eq!(p, w);
         }
+    }
+
+    #[test]
+    fn bit_sink_appends_at_any_offset_in_pieces_of_any_size() {
+        let f = flags(700, 7);
+        let want = from_flags(&f);
+        for offset_rows in [0usize, 1, 63, 64, 100] {
+            for piece in [1usize, 3, 4, 16, 64] {
+                let mut w = vec![0u64; 700usize.div_ceil(64)];
+                // Rows before `offset_rows` through one sink, the rest through another.
+                for (start, end) in [(0, offset_rows), (offset_rows, 700)] {
+                    let mut sink = BitSink::new(&mut w, start);
+                    for s in (start..end).step_by(piece) {
+                        let e = (s + piece).min(end);
+                        let bits = (s..e).fold(0u64, |b, i| b | (f[i] as u64) << (i - s));
+                        sink.push(bits, (e - s) as u32);
+                    }
+                    sink.finish();
+                }
+                assert_eq!(w, want, "offset {offset_rows}, piece {piece}");
+                assert_eq!(count_bits(&w), f.iter().filter(|&&x| x).count());
+            }
+        }
+        let v: Vec<u32> = f.iter().map(|&c| (!c) as u32 * 3).collect();
+        let mut w = vec![0u64; 700usize.div_ceil(64)];
+        let mut sink = BitSink::new(&mut w, 0);
+        sink.push_verdicts(&v[..5]);
+        sink.push_verdicts(&v[5..]);
+        sink.finish();
+        assert_eq!(w, want);
     }
 }

@@ -11,12 +11,13 @@
 //! task that has just screened them, while they are still in that core's
 //! cache, instead of reading the whole chunk from memory again.
 
-use crate::candidates::{reserve, verdict_words, CandidateSet, Segment};
+use crate::candidates::{count_bits, reserve, BitSink, CandidateSet, Segment};
 use crate::digest::{self, Part, Pending, RowDigest, Value, PIECE_ROWS};
 use crate::error::{EdmfError, Result};
-use crate::kernel::{diagnose, screen, Prediction, ScreenPlan, SensorBounds, Tally};
+use crate::kernel::{diagnose_bits_with, screen_bits_with, Isa, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use crate::thresholds::Thresholds;
+use crate::violations::Violations;
 use rayon::prelude::*;
 use rayon::ThreadPool;
 
@@ -50,7 +51,8 @@ pub struct Falsifier {
     n_instances: u64,
     tally: Tally,
     candidates: CandidateSet,
-    violations: Vec<u32>,
+    /// Per-instance counts, one to four bytes each (see `violations`).
+    violations: Violations,
     /// Per-row verdicts of the current slab, reused from slab to slab.
     scratch: Vec<u32>,
     /// Candidate bits of the current slab (`BLOCK_ROWS / 64` words a block),
@@ -91,7 +93,7 @@ impl Falsifier {
             n_instances: 0,
             tally: Tally::zeros(n_m),
             candidates: CandidateSet::new(),
-            violations: Vec::new(),
+            violations: Violations::for_sensors(n_m),
             scratch: Vec::new(),
             slab_words: Vec::new(),
             block_counts: Vec::new(),
@@ -138,13 +140,13 @@ impl Falsifier {
     }
 
     /// Rejecting-sensor count of every instance so far, if kept.
-    pub fn violations(&self) -> Option<&[u32]> {
-        self.keep_violations.then_some(&self.violations[..])
+    pub fn violations(&self) -> Result<Option<Vec<u32>>> {
+        self.keep_violations.then(|| self.violations.to_u32()).transpose()
     }
 
     /// Takes the stored per-instance counts, leaving the accumulator without them.
-    pub fn take_violations(&mut self) -> Option<Vec<u32>> {
-        self.keep_violations.then(|| std::mem::take(&mut self.violations))
+    pub fn take_violations(&mut self) -> Result<Option<Vec<u32>>> {
+        self.keep_violations.then(|| self.violations.take_u32()).transpose()
     }
 
     /// Falsifies the next `chunk` of instances (rows; one column per sensor).
@@ -238,13 +240,17 @@ impl Falsifier {
                 })
             .min(rows);
             let slab = chunk.slice_rows(first, last);
-            if self.scratch.len() < last - first {
+            // Per-row counts only when kept: else the kernels write candidate bits alone.
+            let keep = self.keep_violations && self.mode == Mode::Diagnose;
+            if keep && self.scratch.len() < last - first {
+                reserve(&mut self.scratch, last - first, "per-instance violation counts")?;
                 self.scratch.resize(last - first, 0);
             }
-            let out = &mut self.scratch[..last - first];
-            let n_blocks = out.len().div_ceil(BLOCK_ROWS);
+            let out = &mut self.scratch[..if keep { last - first } else { 0 }];
+            let slab_len = last - first;
+            let n_blocks = slab_len.div_ceil(BLOCK_ROWS);
             self.block_counts.resize(n_blocks, 0);
-            let n_words = out.len().div_ceil(64);
+            let n_words = slab_len.div_ceil(64);
             let have = self.slab_words.len();
             if have < n_words {
                 reserve(&mut self.slab_words, n_words - have, "candidate bitmap")?;
@@ -260,7 +266,7 @@ impl Falsifier {
             );
             let base = self.n_instances + first as u64;
             let (bounds, plan) = (&self.bounds, &self.screen_plan);
-            let verdicts = (&mut *out, &mut *counts, &mut *words);
+            let verdicts = (slab_len, &mut *out, &mut *counts, &mut *words);
             // One hand-over to the pool per slab: waking it costs more than a
             // slab's scheduling inside it.
             let tally = pool.install(|| match (self.mode, plan) {
@@ -271,7 +277,7 @@ impl Falsifier {
                 _ => Some(diagnose_parallel(slab, bounds, verdicts, summing)),
             });
             let found = counts.iter().sum::<usize>() as u64;
-            self.candidates.append(base, out.len() as u64, words, found)?;
+            self.candidates.append(base, slab_len as u64, words, found)?;
             if let Some(p) = pending.as_deref_mut() {
                 for (k, part) in self.block_parts[..n_blocks].iter().enumerate() {
                     p.add(first + k * BLOCK_ROWS, part);
@@ -280,9 +286,8 @@ impl Falsifier {
             match (self.mode, tally) {
                 (Mode::Diagnose, Some(t)) => {
                     chunk_tally.add(&t);
-                    if self.keep_violations {
-                        reserve(&mut self.violations, out.len(), "per-instance violation counts")?;
-                        self.violations.extend_from_slice(out);
+                    if keep {
+                        self.violations.extend(out)?;
                     }
                 }
                 // Learn which sensors reject most; candidates do not depend on it.
@@ -304,9 +309,33 @@ impl Falsifier {
 /// per block of the slab for its checksum sums (left alone when not summing).
 type Summing<'b> = (Option<u64>, &'b mut [Part]);
 
-/// Per-row verdicts of a slab, each block's candidate count, and the slab's
-/// candidate bits (`BLOCK_ROWS / 64` words a block).
-type Verdicts<'a> = (&'a mut [u32], &'a mut [usize], &'a mut [u64]);
+/// Rows of a slab, their rejecting-sensor counts (empty when not kept),
+/// each block's candidate count, and the slab's candidate bits
+/// (`BLOCK_ROWS / 64` words a block).
+type Verdicts<'a> = (usize, &'a mut [u32], &'a mut [usize], &'a mut [u64]);
+
+/// One block's index, counts (empty when not kept), candidate count, candidate words and checksum slot.
+type BlockTask<'a> = (usize, (((&'a mut [u32], &'a mut usize), &'a mut [u64]), &'a mut Part));
+
+/// The block tasks of a slab: `task(k, rows of block k, its counts (empty
+/// when not kept), its candidate words, its checksum slot)`.
+fn blocks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part]) -> impl IndexedParallelIterator<Item = BlockTask<'a>> {
+    let (rows, out, counts, words) = verdicts;
+    // Counts, when kept, one block a task like the rest; else empty slices.
+    let per_block = if out.is_empty() { 0 } else { BLOCK_ROWS };
+    let n_blocks = rows.div_ceil(BLOCK_ROWS);
+    let mut outs: Vec<&'a mut [u32]> = if per_block > 0 {
+        out.chunks_mut(BLOCK_ROWS).collect()
+    } else {
+        Vec::new()
+    };
+    outs.resize_with(n_blocks, Default::default);
+    outs.into_par_iter()
+        .zip(counts.par_iter_mut())
+        .zip(words.par_chunks_mut(BLOCK_ROWS / 64))
+        .zip(slots.par_iter_mut())
+        .enumerate()
+}
 
 /// Runs in the caller's pool; each block's candidate count into `counts`,
 /// and, when summing, the checksum sums of its rows into its slot.
@@ -316,29 +345,34 @@ fn diagnose_parallel<T: Prediction + Value>(
     verdicts: Verdicts<'_>,
     summing: Summing<'_>,
 ) -> Tally {
-    let n_m = b.len();
+    let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let (out, counts, words) = verdicts;
-    out.par_chunks_mut(BLOCK_ROWS)
-        .zip(counts.par_iter_mut())
-        .zip(words.par_chunks_mut(BLOCK_ROWS / 64))
-        .zip(slots.par_iter_mut())
-        .enumerate()
+    blocks(verdicts, slots)
         .fold(
             || (Tally::zeros(n_m), Vec::new()),
             |(mut t, mut buf), (k, (((o, count), w), slot))| {
                 let first = k * BLOCK_ROWS;
-                let rows = m.slice_rows(first, first + o.len());
+                let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
+                w.fill(0);
+                let keep = !o.is_empty();
                 match sum_from {
                     // Each 128 KiB summed right after the kernel read them (in L2).
                     Some(base) => {
-                        *slot = digest::part_after(rows, base + first as u64, &mut buf, |r0, r1| {
-                            diagnose(rows.slice_rows(r0, r1), b, &mut o[r0..r1], &mut t)
+                        *slot = digest::part_after(block, base + first as u64, &mut buf, |r0, r1| {
+                            let mut sink = BitSink::new(w, r0);
+                            let c = if keep { Some(&mut o[r0..r1]) } else { None };
+                            diagnose_bits_with(isa, block.slice_rows(r0, r1), b, c, &mut sink, &mut t);
+                            sink.finish();
                         })
                     }
-                    None => diagnose(rows, b, o, &mut t),
+                    None => {
+                        let mut sink = BitSink::new(w, 0);
+                        let c = if keep { Some(&mut o[..]) } else { None };
+                        diagnose_bits_with(isa, block, b, c, &mut sink, &mut t);
+                        sink.finish();
+                    }
                 }
-                *count = verdict_words(o, w);
+                *count = count_bits(w);
                 (t, buf)
             },
         )
@@ -355,27 +389,29 @@ fn screen_parallel<T: Prediction + Value>(
     verdicts: Verdicts<'_>,
     summing: Summing<'_>,
 ) {
+    let (isa, rows) = (Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let (out, counts, words) = verdicts;
-    out.par_chunks_mut(BLOCK_ROWS)
-        .zip(counts.par_iter_mut())
-        .zip(words.par_chunks_mut(BLOCK_ROWS / 64))
-        .zip(slots.par_iter_mut())
-        .enumerate()
-        .for_each_init(Vec::new, |buf, (k, (((o, count), w), slot))| {
-            let first = k * BLOCK_ROWS;
-            let rows = m.slice_rows(first, first + o.len());
-            match sum_from {
-                // Each 128 KiB summed right after the kernel read them (in L2).
-                Some(base) => {
-                    *slot = digest::part_after(rows, base + first as u64, buf, |r0, r1| {
-                        screen(rows.slice_rows(r0, r1), b, plan, &mut o[r0..r1])
-                    })
-                }
-                None => screen(rows, b, plan, o),
+    blocks(verdicts, slots).for_each_init(Vec::new, |buf, (k, (((_, count), w), slot))| {
+        let first = k * BLOCK_ROWS;
+        let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
+        w.fill(0);
+        match sum_from {
+            // Each 128 KiB summed right after the kernel read them (in L2).
+            Some(base) => {
+                *slot = digest::part_after(block, base + first as u64, buf, |r0, r1| {
+                    let mut sink = BitSink::new(w, r0);
+                    screen_bits_with(isa, block.slice_rows(r0, r1), b, plan, &mut sink);
+                    sink.finish();
+                })
             }
-            *count = verdict_words(o, w);
-        })
+            None => {
+                let mut sink = BitSink::new(w, 0);
+                screen_bits_with(isa, block, b, plan, &mut sink);
+                sink.finish();
+            }
+        }
+        *count = count_bits(w);
+    })
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 //! sensors that reject most and stopping as soon as one rejects.
 
 pub use crate::bounds::{ScreenPlan, SensorBounds, BLOCK};
+pub use crate::candidates::BitSink;
 use crate::matrix::Matrix;
 
 #[cfg(target_arch = "x86_64")]
@@ -25,6 +26,8 @@ pub trait Prediction: Copy + Send + Sync + 'static + Lanes {
     fn to_f64(self) -> f64;
     /// `[p_low, p_high]` per sensor in this type (see `acceptance`).
     fn accepted(b: &SensorBounds) -> &[Vec<Self>; 2];
+    /// The same repeated over `bounds::CYCLE` values (see `SensorBounds`).
+    fn cycled(b: &SensorBounds) -> &[Vec<Self>; 2];
 }
 
 impl Prediction for f64 {
@@ -36,6 +39,10 @@ impl Prediction for f64 {
     fn accepted(b: &SensorBounds) -> &[Vec<f64>; 2] {
         &b.accept64
     }
+    #[inline(always)]
+    fn cycled(b: &SensorBounds) -> &[Vec<f64>; 2] {
+        &b.cycle64
+    }
 }
 
 impl Prediction for f32 {
@@ -46,6 +53,10 @@ impl Prediction for f32 {
     #[inline(always)]
     fn accepted(b: &SensorBounds) -> &[Vec<f32>; 2] {
         &b.accept32
+    }
+    #[inline(always)]
+    fn cycled(b: &SensorBounds) -> &[Vec<f32>; 2] {
+        &b.cycle32
     }
 }
 
@@ -320,6 +331,83 @@ pub fn screen_with<T: Prediction>(
         Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::screen(m, b, plan, out) },
         _ => screen_impl(m, b, plan, out, |row| {
             row_rejected(b, plan, row.len(), |j| row[j].to_f64())
+        }),
+    }
+}
+
+/// Runs `kernel(r0, r1, out)` (per-row values of rows `r0..r1` into `out`,
+/// 0 = candidate) over `rows` rows and appends their candidate bits to
+/// `sink`: into `counts` when given, else a few hundred rows at a time
+/// through a buffer on the stack (for the kernels that test one row at a time).
+pub(crate) fn via_counts(
+    rows: usize,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    mut kernel: impl FnMut(usize, usize, &mut [u32]),
+) {
+    match counts {
+        Some(c) => {
+            kernel(0, rows, c);
+            sink.push_verdicts(c);
+        }
+        None => {
+            let mut buf = [0u32; 256];
+            for r0 in (0..rows).step_by(buf.len()) {
+                let r1 = (r0 + buf.len()).min(rows);
+                kernel(r0, r1, &mut buf[..r1 - r0]);
+                sink.push_verdicts(&buf[..r1 - r0]);
+            }
+        }
+    }
+}
+
+/// Appends one candidate bit per row of `m` to `sink` (as [`diagnose_with`]
+/// gives them), writes the rows' rejecting-sensor counts to `counts` only
+/// if given, and adds the per-sensor counts to `tally`. The AVX-512 short-row
+/// kernels write the bits straight from their masks.
+///
+/// # Panics
+/// As [`diagnose_with`] (`counts`, if given, has one value per row).
+pub fn diagnose_bits_with<T: Prediction>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    tally: &mut Tally,
+) {
+    assert!(
+        m.cols() == b.len() && counts.as_ref().is_none_or(|c| c.len() == m.rows()),
+        "one column per sensor, one count per row"
+    );
+    match isa {
+        // SAFETY: the CPU runs the level (checked by `supported`).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::diagnose_bits(m, b, counts, sink, tally) },
+        _ => via_counts(m.rows(), counts, sink, |r0, r1, out| {
+            diagnose_with(isa, m.slice_rows(r0, r1), b, out, tally)
+        }),
+    }
+}
+
+/// Appends one candidate bit per row of `m` to `sink` (as [`screen_with`]).
+///
+/// # Panics
+/// As [`screen_with`].
+pub fn screen_bits_with<T: Prediction>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    plan: &ScreenPlan,
+    sink: &mut BitSink,
+) {
+    assert!(m.cols() == b.len(), "one column per sensor");
+    match isa {
+        // SAFETY: the CPU runs the level (checked by `supported`).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::screen_bits(m, b, plan, sink) },
+        _ => via_counts(m.rows(), None, sink, |r0, r1, out| {
+            screen_with(isa, m.slice_rows(r0, r1), b, plan, out)
         }),
     }
 }

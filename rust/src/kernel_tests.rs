@@ -3,6 +3,51 @@
 
 use super::*;
 
+/// The bit-writing kernels at `isa` against the per-row counts `want` and
+/// tally `tw` of the portable kernel: candidate bits (written from bit
+/// `offset`, in two pieces split at row `split`), counts when asked for,
+/// the same tally whether or not counts are kept, and screening's bits.
+fn check_bits<T: Prediction>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    plan: &ScreenPlan,
+    want: &[u32],
+    tw: &Tally,
+    what: &str,
+) {
+    let rows = m.rows();
+    for (offset, split) in [(0usize, 0usize), (5, rows / 2), (64, rows / 3), (67, rows)] {
+        let expect: Vec<bool> = want.iter().map(|&n| n == 0).collect();
+        let bit = |w: &[u64], i: usize| (w[(offset + i) / 64] >> ((offset + i) % 64)) & 1 == 1;
+        for keep in [false, true] {
+            let mut words = vec![0u64; (offset + rows).div_ceil(64) + 1];
+            let (mut counts, mut t) = (vec![7u32; rows], Tally::zeros(b.len()));
+            for (r0, r1) in [(0, split), (split, rows)] {
+                let mut sink = BitSink::new(&mut words, offset + r0);
+                let c = if keep { Some(&mut counts[r0..r1]) } else { None };
+                diagnose_bits_with(isa, m.slice_rows(r0, r1), b, c, &mut sink, &mut t);
+                sink.finish();
+            }
+            let got: Vec<bool> = (0..rows).map(|i| bit(&words, i)).collect();
+            assert_eq!(got, expect, "{isa:?} {what}: diagnose bits, keep {keep}, offset {offset}");
+            assert_eq!(crate::candidates::count_bits(&words), expect.iter().filter(|&&c| c).count());
+            assert_eq!(&t, tw, "{isa:?} {what}: tally, keep {keep}");
+            if keep {
+                assert_eq!(counts, want, "{isa:?} {what}: counts");
+            }
+        }
+        let mut words = vec![0u64; (offset + rows).div_ceil(64) + 1];
+        for (r0, r1) in [(0, split), (split, rows)] {
+            let mut sink = BitSink::new(&mut words, offset + r0);
+            screen_bits_with(isa, m.slice_rows(r0, r1), b, plan, &mut sink);
+            sink.finish();
+        }
+        let got: Vec<bool> = (0..rows).map(|i| bit(&words, i)).collect();
+        assert_eq!(got, expect, "{isa:?} {what}: screen bits, offset {offset}");
+    }
+}
+
 /// Vector and portable kernels agree for every row width (lane remainders,
 /// short rows held in registers, partial blocks), with ties on the bounds,
 /// NaN and infinities, and blocks screened out of column order.
@@ -49,6 +94,12 @@ fn vector_kernels_match_portable_ones() {
             screen_with(isa, m, &b, &plan, &mut a);
             screen_with(Isa::Portable, m, &b, &plan, &mut c);
             assert_eq!(a, c, "{isa:?} screen, {k} sensors");
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64, {k} sensors"));
+            let mut tw = Tally::zeros(k);
+            diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32, {k} sensors"));
         }
         let rejected = c.iter().filter(|&&r| r > 0).count();
         assert!(
@@ -235,6 +286,7 @@ fn short_rows_match_portable_in_every_layout() {
                     let mut t = Tally::zeros(k);
                     diagnose_with(isa, *m, &b, &mut got, &mut t);
                     check(&got, &t, &format!("f64 view {v}"));
+                    check_bits(isa, *m, &b, &plan, &want, &tw, &format!("f64 view {v}, {k} sensors, {rows} rows"));
                     screen_with(isa, *m, &b, &plan, &mut got);
                     assert_eq!(got, flags, "{isa:?} screen f64 view {v}, {k} sensors");
                 }
@@ -245,6 +297,7 @@ fn short_rows_match_portable_in_every_layout() {
                     let mut t = Tally::zeros(k);
                     diagnose_with(isa, *m, &b, &mut got, &mut t);
                     assert_eq!((&got, &t), (&w32, &t32), "{isa:?} f32 view {v}, {k} sensors");
+                    check_bits(isa, *m, &b, &plan, &w32, &t32, &format!("f32 view {v}, {k} sensors, {rows} rows"));
                     screen_with(isa, *m, &b, &plan, &mut got);
                     let f32_flags: Vec<u32> = w32.iter().map(|&n| (n > 0) as u32).collect();
                     assert_eq!(got, f32_flags, "{isa:?} screen f32 view {v}, {k} sensors");
@@ -260,6 +313,47 @@ fn short_rows_match_portable_in_every_layout() {
             if rows == 200 {
                 assert!(want.iter().all(|&n| n == 0), "all candidates");
             }
+        }
+    }
+}
+
+/// An acceptance interval no prediction reaches (empty for f32: a zero-width
+/// threshold between two floats) beside NaN predictions: the periodic
+/// kernel then cannot tell NaN by "outside on both sides" and must count
+/// invalid rows by the NaN test itself.
+#[test]
+fn empty_intervals_and_nan_rows_match_portable() {
+    for k in [3usize, 5, 6, 10, 12] {
+        let y: Vec<f64> = (0..k).map(|j| 0.1 + 0.25 * j as f64).collect();
+        let mut lo: Vec<f64> = vec![-0.5; k];
+        let mut hi: Vec<f64> = vec![0.5; k];
+        (lo[k / 2], hi[k / 2]) = (1e-12, 1e-12); // no f32 prediction lands on it
+        let b = SensorBounds::new(&y, &lo, &hi).unwrap();
+        assert!(!(b.accept32[0][k / 2] <= b.accept32[1][k / 2]), "an empty f32 interval");
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        let rows = 300;
+        let mut state = 0xABCD_EF01_2345_6789u64 ^ k as u64;
+        let data: Vec<f64> = (0..rows * k)
+            .map(|i| {
+                let u = crate::testing::uniform(&mut state);
+                if u < 0.03 {
+                    f64::NAN
+                } else {
+                    y[i % k] + (u - 0.5) * 1.2
+                }
+            })
+            .collect();
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let m = Matrix::row_major(&data, rows, k).unwrap();
+        let m32 = Matrix::row_major(&data32, rows, k).unwrap();
+        for isa in Isa::available() {
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+            assert!(tw.invalid > 0 && want.iter().all(|&n| n > 0), "every f32 row rejected, some NaN");
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 empty interval, {k} sensors"));
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64, {k} sensors"));
         }
     }
 }

@@ -28,6 +28,7 @@ mod simd;
 #[cfg(test)]
 mod testing;
 pub mod thresholds;
+pub mod violations;
 
 pub use error::{EdmfError, Result};
 pub use falsifier::{Falsifier, Mode};

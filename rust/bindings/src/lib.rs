@@ -203,8 +203,10 @@ impl Falsifier {
     }
 
     /// The per-instance rejecting-sensor counts (moved out, not copied), if kept.
-    fn take_violations<'py>(&mut self, py: Python<'py>) -> Option<Vector<'py, u32>> {
-        self.inner.take_violations().map(|v| v.into_pyarray(py))
+    fn take_violations<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Vector<'py, u32>>> {
+        // Kept narrow during the run, widened here (an error if memory runs out).
+        let taken = self.inner.take_violations().map_err(|e| PyMemoryError::new_err(e.to_string()))?;
+        Ok(taken.map(|v| v.into_pyarray(py)))
     }
 }
 

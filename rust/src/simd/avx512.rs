@@ -4,7 +4,8 @@
 
 use super::periodic::Periodic;
 use super::short::{takes, ShortRows};
-use crate::kernel::{diagnose_impl, screen_impl, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
+use crate::candidates::BitSink;
+use crate::kernel::{diagnose_impl, screen_impl, via_counts, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
@@ -130,40 +131,86 @@ fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Pe
     Some((kernel, data, whole))
 }
 
+/// Candidate bits of the rows of `m` into `sink`, their rejecting-sensor
+/// counts into `counts` if given, their diagnostics into `t`.
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
-pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
+pub fn diagnose_bits<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    t: &mut Tally,
+) {
     if let Some((kernel, data, whole)) = periodic(m, b) {
-        // SAFETY: AVX-512F and POPCNT are enabled; `data` holds the rows back to back.
-        unsafe { kernel.diagnose(data, &mut out[..whole], t) };
+        let periods = whole / kernel.rows();
         let rest = m.slice_rows(whole, m.rows());
+        // SAFETY: AVX-512F, POPCNT and BMI2 (checked by `periodic`) are
+        // enabled; `data` holds the rows back to back.
+        let tail = match counts {
+            Some(c) => {
+                let (head, tail) = c.split_at_mut(whole);
+                unsafe { kernel.diagnose::<true>(data, periods, head, sink, t) };
+                Some(tail)
+            }
+            None => {
+                unsafe { kernel.diagnose::<false>(data, periods, &mut [], sink, t) };
+                None
+            }
+        };
         if rest.rows() > 0 {
             // SAFETY: as below (the rest is packed rows too).
-            unsafe { ShortRows::<T>::new(b, true).diagnose(rest, &mut out[whole..], t) };
+            unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };
         }
     } else if takes(&m) {
         // SAFETY: AVX-512F and POPCNT are enabled; `takes` checked the row
         // width and that rows are contiguous; packed only if back to back.
-        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).diagnose(m, out, t) };
+        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).diagnose(m, counts, sink, t) };
     } else {
-        diagnose_impl(m, b, out, t, |row, b, counts| diagnose_row(row, b, counts))
+        via_counts(m.rows(), counts, sink, |r0, r1, out| {
+            diagnose_impl(m.slice_rows(r0, r1), b, out, t, |row, b, counts| diagnose_row(row, b, counts))
+        })
     }
 }
 
+/// Candidate bits of the rows of `m` into `sink`.
 #[target_feature(enable = "avx512f,popcnt")]
-pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
+pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, sink: &mut BitSink) {
     if let Some((kernel, data, whole)) = periodic(m, b) {
-        // SAFETY: AVX-512F and BMI2 (checked by `periodic`) are enabled;
-        // `data` holds the rows back to back.
-        unsafe { kernel.screen(data, &mut out[..whole]) };
+        // SAFETY: AVX-512F, POPCNT and BMI2 (checked by `periodic`) are
+        // enabled; `data` holds the rows back to back.
+        unsafe { kernel.screen(data, whole / kernel.rows(), sink) };
         let rest = m.slice_rows(whole, m.rows());
         if rest.rows() > 0 {
             // SAFETY: as below (the rest is packed rows too).
-            unsafe { ShortRows::<T>::new(b, true).screen(rest, &mut out[whole..]) };
+            unsafe { ShortRows::<T>::new(b, true).screen(rest, sink) };
         }
     } else if takes(&m) {
-        // SAFETY: as in `diagnose`.
-        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, out) };
+        // SAFETY: as in `diagnose_bits`.
+        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, sink) };
     } else {
-        screen_impl(m, b, plan, out, |row| row_rejected(row, b, plan))
+        via_counts(m.rows(), None, sink, |r0, r1, out| {
+            screen_impl(m.slice_rows(r0, r1), b, plan, out, |row| row_rejected(row, b, plan))
+        })
+    }
+}
+
+/// [`diagnose_bits`] with every row's count in `out` (the bits thrown away).
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
+    let mut words = vec![0u64; out.len().div_ceil(64)];
+    let mut sink = BitSink::new(&mut words, 0);
+    diagnose_bits(m, b, Some(out), &mut sink, t);
+    sink.finish();
+}
+
+/// [`screen_bits`] as one verdict per row in `out` (1 falsified, 0 candidate).
+#[target_feature(enable = "avx512f,popcnt")]
+pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
+    let mut words = vec![0u64; out.len().div_ceil(64)];
+    let mut sink = BitSink::new(&mut words, 0);
+    screen_bits(m, b, plan, &mut sink);
+    sink.finish();
+    for (i, v) in out.iter_mut().enumerate() {
+        *v = ((words[i / 64] >> (i % 64)) & 1 == 0) as u32;
     }
 }

@@ -54,6 +54,10 @@ pub trait Lanes: Copy {
     unsafe fn inside512(lanes: u32, p: Self::V512, low: Self::V512, high: Self::V512) -> u32;
     /// Bits of the lanes in `lanes` where `p` is NaN. # Safety: AVX-512F is available.
     unsafe fn nan512(lanes: u32, p: Self::V512) -> u32;
+    /// Bits of all lanes where `p >= low` and where `p <= high`, unmasked:
+    /// with `low <= high`, a lane is in neither iff `p` is NaN (one
+    /// comparison fewer than `inside512` and `nan512`). # Safety: AVX-512F is available.
+    unsafe fn sides512(p: Self::V512, low: Self::V512, high: Self::V512) -> (u32, u32);
     /// A lane permutation for `permute512`: lane `l` takes lane `idx[l]` (the
     /// first `W512` entries are used). # Safety: AVX-512F is available.
     unsafe fn index512(idx: &[i32; 16]) -> __m512i;
@@ -98,6 +102,15 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512d) -> u32 {
         _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes as __mmask8, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn sides512(p: __m512d, low: __m512d, high: __m512d) -> (u32, u32) {
+        (
+            _mm512_cmp_pd_mask::<_CMP_GE_OQ>(p, low) as u32,
+            _mm512_cmp_pd_mask::<_CMP_LE_OQ>(p, high) as u32,
+        )
     }
 
     #[inline]
@@ -151,6 +164,15 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512) -> u32 {
         _mm512_mask_cmp_ps_mask::<_CMP_UNORD_Q>(lanes as __mmask16, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn sides512(p: __m512, low: __m512, high: __m512) -> (u32, u32) {
+        (
+            _mm512_cmp_ps_mask::<_CMP_GE_OQ>(p, low) as u32,
+            _mm512_cmp_ps_mask::<_CMP_LE_OQ>(p, high) as u32,
+        )
     }
 
     #[inline]

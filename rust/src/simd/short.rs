@@ -14,6 +14,7 @@
 //! bits of the rows with exactly one rejecting sensor (that bit is the
 //! sensor), and NaN rows are counted only in the rare vectors holding a NaN.
 
+use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
@@ -168,29 +169,31 @@ impl<T: Prediction> ShortRows<T> {
         prefix(if self.rows > 1 { self.slot } else { 2 * T::W512 })
     }
 
-    /// Writes each row's verdict (1 falsified, 0 candidate) to `out`; returns
-    /// the number of candidates.
+    /// Writes each row's candidate bit to `sink`.
     ///
     /// # Safety
     /// AVX-512F, POPCNT are available; rows of `m` are contiguous (and back
-    /// to back when packed); `out` has one value per row.
+    /// to back when packed).
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
-    pub unsafe fn screen(&self, m: Matrix<'_, T>, out: &mut [u32]) -> usize {
-        self.dispatch::<false>(m, out, &mut Tally::zeros(0))
+    pub unsafe fn screen(&self, m: Matrix<'_, T>, sink: &mut BitSink) {
+        self.dispatch::<false, false>(m, &mut [], sink, &mut Tally::zeros(0))
     }
 
-    /// Writes each row's rejecting-sensor count to `out` and adds its
-    /// diagnostics to `t` (as `kernel::diagnose`); returns the number of
-    /// candidates.
+    /// Writes each row's candidate bit to `sink`, its rejecting-sensor count
+    /// to `counts` if given (one per row), and adds its diagnostics to `t`
+    /// (as `kernel::diagnose`).
     ///
     /// # Safety
     /// As [`Self::screen`]; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
-    pub unsafe fn diagnose(&self, m: Matrix<'_, T>, out: &mut [u32], t: &mut Tally) -> usize {
+    pub unsafe fn diagnose(&self, m: Matrix<'_, T>, counts: Option<&mut [u32]>, sink: &mut BitSink, t: &mut Tally) {
         assert!(t.per_sensor.len() == self.k);
-        self.dispatch::<true>(m, out, t)
+        match counts {
+            Some(c) => self.dispatch::<true, true>(m, c, sink, t),
+            None => self.dispatch::<true, false>(m, &mut [], sink, t),
+        }
     }
 
     /// The pass compiled for this layout: rows per unit and vectors per row
@@ -198,39 +201,50 @@ impl<T: Prediction> ShortRows<T> {
     /// immediates (about a third of the instructions of a generic loop).
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
-    unsafe fn dispatch<const DIAG: bool>(&self, m: Matrix<'_, T>, out: &mut [u32], t: &mut Tally) -> usize {
-        assert!(out.len() == m.rows() && m.cols() == self.k);
+    unsafe fn dispatch<const DIAG: bool, const COUNTS: bool>(
+        &self,
+        m: Matrix<'_, T>,
+        counts: &mut [u32],
+        sink: &mut BitSink,
+        t: &mut Tally,
+    ) {
+        assert!((!COUNTS || counts.len() == m.rows()) && m.cols() == self.k);
         match (self.rows, self.vectors) {
-            (1, 1) => self.run::<1, 1, DIAG>(m, out, t),
-            (1, _) => self.run::<1, 2, DIAG>(m, out, t),
-            (2, _) => self.run::<2, 1, DIAG>(m, out, t),
-            (4, _) => self.run::<4, 1, DIAG>(m, out, t),
-            (8, _) => self.run::<8, 1, DIAG>(m, out, t),
-            _ => self.run::<16, 1, DIAG>(m, out, t),
+            (1, 1) => self.run::<1, 1, DIAG, COUNTS>(m, counts, sink, t),
+            (1, _) => self.run::<1, 2, DIAG, COUNTS>(m, counts, sink, t),
+            (2, _) => self.run::<2, 1, DIAG, COUNTS>(m, counts, sink, t),
+            (4, _) => self.run::<4, 1, DIAG, COUNTS>(m, counts, sink, t),
+            (8, _) => self.run::<8, 1, DIAG, COUNTS>(m, counts, sink, t),
+            _ => self.run::<16, 1, DIAG, COUNTS>(m, counts, sink, t),
         }
     }
 
     /// One pass over the rows of `m`, `R` rows per unit (packed when R > 1),
-    /// `G` vectors per row; diagnostics into `t` when `DIAG`.
+    /// `G` vectors per row; diagnostics into `t` when `DIAG`, per-row counts
+    /// into `counts` when `COUNTS`. Candidate bits go to `sink` 64 rows at a
+    /// time (R divides 64).
     #[inline(always)]
-    unsafe fn run<const R: usize, const G: usize, const DIAG: bool>(
+    unsafe fn run<const R: usize, const G: usize, const DIAG: bool, const COUNTS: bool>(
         &self,
         m: Matrix<'_, T>,
-        out: &mut [u32],
+        counts: &mut [u32],
+        sink: &mut BitSink,
         t: &mut Tally,
-    ) -> usize {
+    ) {
         assert!(R == self.rows && (R == 1 || G == 1));
         let (field, slot, w, k) = (self.row_bits(), self.slot, T::W512, self.k);
         let ones = _mm512_set1_epi32(1);
         // Per-lane counts in u32 lanes: a block has far fewer than 2^32 rows.
         let (mut per_lane, mut only_lane) = ([_mm512_setzero_si512(); 2], [_mm512_setzero_si512(); 2]);
-        let (mut candidates, mut invalid) = (0usize, 0u64);
+        let mut invalid = 0u64;
         let packed = if R > 1 {
             m.packed_rows().expect("rows back to back")
         } else {
             &[]
         };
         let total = m.rows();
+        // Candidate bits of the rows since the last push to `sink`.
+        let (mut word, mut filled) = (0u64, 0usize);
         for u in 0..total.div_ceil(R) {
             let n = R.min(total - u * R);
             let (bits, nan) = if R == 1 {
@@ -241,7 +255,6 @@ impl<T: Prediction> ShortRows<T> {
                 // The last, partial unit of packed rows.
                 self.unit(packed.as_ptr().add(u * R * k), n)
             };
-            let o = &mut out[u * R..u * R + n];
             let mut single = 0u64;
             // `R` constant: unrolled, the shifts are immediates (hence the index).
             #[allow(clippy::needless_range_loop)]
@@ -249,11 +262,18 @@ impl<T: Prediction> ShortRows<T> {
                 if r < n {
                     let f = bits & (field << (r * slot));
                     let count = f.count_ones();
-                    o[r] = if DIAG { count } else { (count != 0) as u32 };
-                    candidates += (count == 0) as usize;
+                    if COUNTS {
+                        counts[u * R + r] = count;
+                    }
+                    word |= ((count == 0) as u64) << (filled + r);
                     // The one rejecting sensor's bit, for rows rejected by one only.
                     single |= f & ((count == 1) as u64).wrapping_neg();
                 }
+            }
+            filled += n;
+            if filled == 64 {
+                sink.push(word, 64);
+                (word, filled) = (0, 0);
             }
             if DIAG {
                 if nan != 0 {
@@ -266,6 +286,9 @@ impl<T: Prediction> ShortRows<T> {
                     only_lane[g] = _mm512_mask_add_epi32(only_lane[g], s, only_lane[g], ones);
                 }
             }
+        }
+        if filled > 0 {
+            sink.push(word, filled as u32);
         }
         if DIAG {
             let mut lanes = [[0u32; 16]; 4];
@@ -283,7 +306,6 @@ impl<T: Prediction> ShortRows<T> {
             }
             t.invalid += invalid;
         }
-        candidates
     }
 }
 
