@@ -8,6 +8,7 @@
 pub mod avx2;
 pub mod avx512;
 pub mod checksum;
+pub mod medium;
 pub mod periodic;
 pub mod short;
 pub mod short_avx2;
