@@ -12,7 +12,8 @@ sensors are many and rows of 200 few.
     python benches/throughput.py --floor                      # the whole table
     python benches/throughput.py --floor --nm 5 10 --dtype f64 --cases worst
 
-Timings are best-of-k (``--repeat``) with time.perf_counter (wall) and
+Timings are best-of-k (``--repeat`` rounds, each running the floor and both
+methods once in a rotating order) with time.perf_counter (wall) and
 time.process_time (CPU seconds of all threads of this process). On a shared
 machine a thread waiting for a core inflates wall time but not CPU time, so
 the CPU ratio is the steadier one there; ``os.getloadavg()`` is printed with
@@ -38,15 +39,19 @@ def falsify(p, y, t, diagnostics: bool):
     return edmf_rs.falsify(p, y, t, diagnostics=diagnostics, keep_violations=False, progress=False)
 
 
-def best(fn, repeat: int) -> tuple[float, float]:
-    """Least wall and least CPU seconds (all threads) over `repeat` runs."""
-    wall, cpu = [], []
-    for _ in range(repeat):
-        w, c = time.perf_counter(), time.process_time()
-        fn()
-        cpu.append(time.process_time() - c)
-        wall.append(time.perf_counter() - w)
-    return min(wall), min(cpu)
+def best_interleaved(fns: dict, repeat: int) -> dict[str, tuple[float, float]]:
+    """Least wall and least CPU seconds (all threads) of each of `fns` over
+    `repeat` rounds, every round running each once in a rotating order, so a
+    slow spell of a shared machine falls on all of them alike."""
+    times = {name: ([], []) for name in fns}
+    names = list(fns)
+    for k in range(repeat):
+        for name in names[k % len(names):] + names[:k % len(names)]:
+            w, c = time.perf_counter(), time.process_time()
+            fns[name]()
+            times[name][1].append(time.process_time() - c)
+            times[name][0].append(time.perf_counter() - w)
+    return {name: (min(wall), min(cpu)) for name, (wall, cpu) in times.items()}
 
 
 def main(argv=None) -> int:
@@ -55,7 +60,7 @@ def main(argv=None) -> int:
     ap.add_argument("--dtype", nargs="+", default=["f64", "f32"], choices=sorted(DTYPES))
     ap.add_argument("--cases", nargs="+", default=["worst", "typical"], choices=["worst", "typical"])
     ap.add_argument("--mb", type=float, default=800.0, help="array size in MB (default 800: 1e7 x 10 f64)")
-    ap.add_argument("--repeat", type=int, default=5, help="best of k (default 5)")
+    ap.add_argument("--repeat", type=int, default=7, help="best of k rounds (default 7)")
     args = ap.parse_args(argv)
     print(machine())
     print(f"edmf_rs threads: {edmf_rs.get_num_threads()}; load average at start: "
@@ -73,10 +78,11 @@ def main(argv=None) -> int:
                     share = results[1].n_candidates / n
                     assert results[0].n_candidates == results[1].n_candidates
                     assert (case == "worst") == (share == 1.0), (case, share)
-                    floor = best(lambda: read_floor(p, pool, 2), args.repeat)
-                    times = {"diagnostics": best(lambda: falsify(p, y, t, True), args.repeat),
-                             "no diagnostics": best(lambda: falsify(p, y, t, False), args.repeat)}
-                    for method, (s, c) in {"floor": floor, **times}.items():
+                    times = best_interleaved({"floor": lambda: read_floor(p, pool, 2),
+                                              "diagnostics": lambda: falsify(p, y, t, True),
+                                              "no diagnostics": lambda: falsify(p, y, t, False)}, args.repeat)
+                    floor = times["floor"]
+                    for method, (s, c) in times.items():
                         print(f"{n_m:>4} {name:>5} {case:>7} {n:>11,}  {method:<14} {s * 1e3:>8.1f} "
                               f"{floor[0] * 1e3:>9.1f} {floor[0] / s:>11.2f} {c * 1e3:>8.1f} "
                               f"{floor[1] * 1e3:>9.1f} {floor[1] / c:>9.2f}", flush=True)

@@ -129,6 +129,12 @@ impl Falsifier {
         self.candidates.indices_since(since)
     }
 
+    /// The candidates among instances `since .. since + rows` as a bitmap
+    /// (see [`CandidateSet::bitmap`]).
+    pub fn candidate_bitmap(&self, since: u64, rows: u64) -> Vec<u64> {
+        self.candidates.bitmap(since, rows)
+    }
+
     /// Takes the candidates, leaving the accumulator without them.
     pub fn take_candidates(&mut self) -> Vec<Segment> {
         self.candidates.take()

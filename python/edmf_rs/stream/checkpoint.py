@@ -355,7 +355,7 @@ class Checkpoint:
         if n_done > self.n_done:
             # The accumulator's candidates since the last save (each save takes them out; it started at `base`).
             form, n_candidates, files["candidates"] = parts.candidates_file(
-                acc.take_candidate_segments(), self.n_done, n_done - self.n_done, self.base)
+                acc, self.n_done, n_done - self.n_done, self.base)
             if "n_violated" in self.fields:
                 files["n_violated"] = acc.take_violations().view(np.int32)
             for name, rows in arrays.items():

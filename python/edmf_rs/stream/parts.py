@@ -91,33 +91,18 @@ def check_violations(path: Path, counts: np.ndarray, n_sensors: int, mask: np.nd
                          "or inconsistent with the candidates; delete the folder to start over")
 
 
-def candidates_file(segments: list, first: int, n_instances: int, offset: int) -> tuple[str, int, np.ndarray]:
+def candidates_file(acc, first: int, n_instances: int, offset: int) -> tuple[str, int, np.ndarray]:
     """``(form, count, array)`` of a part's candidates (see `FORMS`): the run's
-    instances ``first .. first + n_instances``, from the accumulator's
-    ``take_candidate_segments`` (uint64 indices, or ``(start, rows, words)``
-    bitmaps; a position ``p`` there is the run's instance ``offset + p``)."""
-    count = sum(int(np.count_nonzero(_bits(s[1], s[2]))) if isinstance(s, tuple) else len(s) for s in segments)
+    instances ``first .. first + n_instances``, the candidates the accumulator
+    ``acc`` holds (its instance ``p`` is the run's ``offset + p``), which are
+    then taken out of it."""
+    count, since = int(acc.n_candidates), first - offset
     if count * 64 <= n_instances:
-        idx = [np.flatnonzero(_bits(s[1], s[2])) + s[0] if isinstance(s, tuple) else s.astype(np.int64)
-               for s in segments]
-        out = np.concatenate(idx) if idx else np.empty(0, np.int64)
-        return "indices", count, out.astype(np.int64, copy=False) + offset
-    mask = np.zeros(n_instances, dtype=bool)
-    start = first - offset
-    for s in segments:
-        if isinstance(s, tuple):
-            mask[s[0] - start:s[0] - start + s[1]] = _bits(s[1], s[2])
-        else:
-            mask[s.astype(np.int64) - start] = True
-    return "bitmap", count, words_of(mask)
-
-
-def words_of(mask: np.ndarray) -> np.ndarray:
-    """Little-endian uint64 words of a boolean mask (bit ``i % 64`` of word ``i // 64``)."""
-    packed = np.packbits(mask, bitorder="little")
-    padded = np.zeros(-(-len(packed) // 8) * 8, np.uint8)
-    padded[:len(packed)] = packed
-    return padded.view("<u8")
+        out = "indices", count, acc.candidates_since(since).astype(np.int64) + offset
+    else:
+        out = "bitmap", count, acc.candidate_bitmap(since, n_instances).astype("<u8", copy=False)
+    acc.take_candidate_segments()  # saved: the accumulator need not keep them
+    return out
 
 
 def _bits(rows: int, words: np.ndarray) -> np.ndarray:

@@ -184,6 +184,13 @@ impl Falsifier {
         PyList::new(py, segments.collect::<PyResult<Vec<_>>>()?)
     }
 
+    /// The candidates among instances `since .. since + rows` as uint64
+    /// words: bit `i % 64` of word `i // 64` set iff instance `since + i` is one.
+    fn candidate_bitmap<'py>(&self, py: Python<'py>, since: u64, rows: u64) -> Vector<'py, u64> {
+        let inner = &self.inner;
+        py.detach(|| inner.candidate_bitmap(since, rows)).into_pyarray(py)
+    }
+
     /// Indices of the candidates at instance `since` or later, ascending.
     #[pyo3(signature = (since=0))]
     fn candidates_since<'py>(&self, py: Python<'py>, since: u64) -> Vector<'py, u64> {
