@@ -78,3 +78,13 @@ def test_the_memory_numbers_are_the_benchmark_file():
     text = " ".join(README.read_text(encoding="utf-8").split())
     assert (f"the cantilever with 2^23 Sobol' instances and {candidates / 1e6:.1f} million candidates peaks at "
             f"{peak:.0f} MB") in text
+
+
+def test_the_checksum_cost_is_the_benchmark_file():
+    """The README's checksum costs are the medians printed by the last run in benches/results-hash-cost.txt."""
+    last = (README.parent / "benches" / "results-hash-cost.txt").read_text().split("\n=== ")[-1]
+    in_memory = re.search(r"CPU on/off of the best times: median ([\d.]+)", last)[1]
+    streaming = re.search(r"ckpt\+sum / ckpt: median ([\d.]+)", last)[1]
+    readme = " ".join(README.read_text(encoding="utf-8").split())
+    assert f"a median {in_memory} times the CPU time of the falsifier alone" in readme
+    assert f"a median {streaming} times as long as with the checksum replaced by a row counter" in readme

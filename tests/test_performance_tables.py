@@ -1,0 +1,56 @@
+"""The short-row table of docs/performance.md is the median and range of the
+runs recorded in benches/results-short-rows.txt (sections "session 7 final
+code"), recomputed here from that file: the page prints no number the
+benchmark did not."""
+
+import re
+import statistics
+from collections import defaultdict
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+ROW = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+[\d.]+\s+([\d.]+)")
+
+
+def test_short_row_table_matches_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    runs = [s for s in text.split("\n=== ") if s.startswith("session 7 final code")]
+    assert len(runs) == 6
+    ratios = defaultdict(list)
+    for run in runs:
+        for m in map(ROW.match, run.splitlines()):
+            if m:
+                ratios[(m[1], m[2], m[3], m[4])].append(float(m[5]))
+    page = (ROOT / "docs" / "performance.md").read_text()
+    cases = sorted({k[:3] for k in ratios})
+    assert len(cases) == 20
+    for n_m, dtype, case in cases:
+        cells = []
+        for mode in ("diagnostics", "no diagnostics"):
+            v = ratios[(n_m, dtype, case, mode)]
+            assert len(v) == 6
+            cells.append(f"{statistics.median(v):.2f} ({min(v):.2f}-{max(v):.2f})")
+        assert f"| {n_m} | {dtype} | {case} | {cells[0]} | {cells[1]} |" in page
+
+
+def test_side_by_side_figures_match_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    section = text.split("\n=== session 7: side by side")[1]
+    values = defaultdict(list)
+    for line in section.splitlines():
+        version, _, cells = line.partition(": ")
+        if version in ("old", "main"):
+            for cell in cells.split(" | "):
+                *case, ratio = cell.split()
+                values[(version, " ".join(case))].append(float(ratio))
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+
+    def span(version, case):
+        v = values[(version, case)]
+        return f"{min(v):.2f}-{max(v):.2f}"
+
+    for case in ("10 float32 typical diag", "10 float64 typical diag", "50 float32 worst diag"):
+        assert f"from {span('old', case)} to {span('main', case)}" in page, case
+    ms = re.search(r"old ([\d.]+) / main ([\d.]+) / old ([\d.]+) / main ([\d.]+) / old ([\d.]+) / main ([\d.]+)", section)
+    old, new = sorted(map(float, ms.groups()[0::2])), sorted(map(float, ms.groups()[1::2]))
+    assert f"took {old[0]}-{old[-1]} ms before and {new[0]}-{new[-1]} ms after" in page
