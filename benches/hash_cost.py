@@ -19,9 +19,10 @@ the median over rounds of the paired CPU ratio (the most robust figure on a
 shared machine). Target: on/off below 1.05.
 
 What bounds it (``cargo bench --bench checksum`` times both on the same
-bytes, one thread): on an AMD EPYC Zen 4 the checksum sums 50-75 GB/s per
-core from L1 or L2 and the screening kernel reads 20-25 GB/s, so summing
-what it has just read adds at least a quarter to its CPU time; a sum of two
+bytes, one thread; ``results-checksum.txt``): on an AMD EPYC Zen 4 the
+checksum sums 55-67 GiB/s per core from L1 or L2 and the screening kernel
+reads about 25 GiB/s, so summing what it has just read adds over a third
+to its CPU time; a sum of two
 vector additions per 64 bytes would still add a tenth. The checksum must read every byte (a 64-byte vector load and
 five vector operations per 8 float64 words, per 16 float32 values twice that
 after widening), while screening reads only the first sensors of most rows

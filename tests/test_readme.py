@@ -88,3 +88,14 @@ def test_the_checksum_cost_is_the_benchmark_file():
     readme = " ".join(README.read_text(encoding="utf-8").split())
     assert f"a median {in_memory} times the CPU time of the falsifier alone" in readme
     assert f"a median {streaming} times as long as with the checksum replaced by a row counter" in readme
+
+
+def test_the_checksum_rates_are_the_benchmark_file():
+    """The README's checksum and screening rates are the medians in benches/results-checksum.txt (L1 and L2)."""
+    text = (README.parent / "benches" / "results-checksum.txt").read_text()
+    medians = dict(re.findall(r"checksum/(\S+)\s+(?:time:.*\n)?\s+thrpt:\s+\[\S+ GiB/s ([\d.]+) GiB/s", text))
+    sums = [float(medians[f"sum/{isa}/{kib}"]) for isa in ("Avx2", "Avx512") for kib in (16, 256)]
+    screen = [float(medians[f"screen/worst/{kib}"]) for kib in (16, 256)]
+    readme = " ".join(README.read_text(encoding="utf-8").split())
+    assert (f"sums {min(sums):.0f}-{max(sums):.0f} GiB/s per core from L1 and L2, the screening kernel "
+            f"{min(screen):.1f}-{max(screen):.1f} GiB/s on the same bytes") in readme
