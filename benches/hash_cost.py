@@ -2,9 +2,9 @@
 
 A checkpointed run sums every row it falsifies into the block checksum
 ``fletcher64x8/1`` (``rust/src/digest.rs``), in the falsifier's own pass
-(``Falsifier.update(chunk, digest=...)``): each 1024-row kernel block is summed
-by the thread that has just screened it, while its rows are in that core's
-cache. This times, side by side in one run, the same in-memory chunks through
+(``Falsifier.update(chunk, digest=...)``): each 128 KiB of rows is summed
+by the thread that has just screened it, while the rows are in that core's
+L2 cache. This times, side by side in one run, the same in-memory chunks through
 
 - "off": the falsifier alone;
 - "on":  the falsifier feeding the checksum (what a checkpointed run does);
@@ -19,24 +19,21 @@ the median over rounds of the paired CPU ratio (the most robust figure on a
 shared machine). Target: on/off below 1.05.
 
 What bounds it (``cargo bench --bench checksum`` times both on the same
-bytes, one thread; ``results-checksum.txt``): on an AMD EPYC Zen 4 the
-checksum sums 55-67 GiB/s per core from L1 or L2 and the screening kernel
-reads about 25 GiB/s, so summing what it has just read adds over a third
-to its CPU time; a sum of two
-vector additions per 64 bytes would still add a tenth. The checksum must read every byte (a 64-byte vector load and
-five vector operations per 8 float64 words, per 16 float32 values twice that
-after widening), while screening reads only the first sensors of most rows
-and runs at about 20 GB/s per core whether the data are in cache or in
-memory (it is not waiting on memory, so there is no idle time to hide the
-sums in). Even one load and one addition per 64 bytes would cost about a
-tenth of screening's time at n_m = 50.
+bytes, one thread; ``results-checksum.txt``): the checksum must read every
+byte (a 64-byte load and five vector operations per 8 float64 words, twice
+that per 16 float32 values after widening). On an AMD EPYC Zen 4 it sums
+55-67 GiB/s per core from L1 or L2 and the screening kernel reads about
+25 GiB/s, whether the data are in cache or in memory (it is not waiting on
+memory, so there is no idle time to hide the sums in): summing what it has
+just read adds over a third to its CPU time, and even two vector additions
+per 64 bytes would add about a tenth.
 
 The second table is the streaming rate the checksum is meant to be cheap
 beside: ``edmf_rs.falsify`` over a ``.npy`` file (warm in the page cache, as
-after it was written) with a ``checkpoint`` folder, against the same call
-without one, wall time, alternating rounds. The difference holds everything a
-checkpoint costs (the checksum, the state and part files), so it bounds the
-checksum's share from above.
+after it was written) with no checkpoint, with a checkpoint folder whose
+checksum is replaced by a row counter (`RowCounter`), and with a real one,
+wall time, rounds in rotating order. "sum share" (real / counter) is the
+checksum's cost; "ckpt/none" what the rest of a checkpoint costs.
 
 Run: ``python benches/hash_cost.py`` (about two minutes; ``--mbytes`` sets the
 data per in-memory case, ``--file-mbytes`` per file, ``--repeats`` the rounds).

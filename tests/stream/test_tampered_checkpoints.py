@@ -190,3 +190,17 @@ def test_a_fifo_in_place_of_a_file_is_refused_not_waited_on(tmp_path):
     os.mkfifo(folder / "state.json")
     with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*not a regular file"):
         edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
+
+
+def test_forged_violation_counts_beside_candidate_indices_are_refused(tmp_path):
+    folder = tmp_path / "run"
+    predictions, y, _ = _case()
+    t = Thresholds(np.full(N_M, -0.3), np.full(N_M, 0.3))  # few candidates: parts store indices
+    result = edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, checkpoint_every=0,
+                             progress=False)
+    assert _load(folder)["parts"][0]["candidates"] == "indices" and result.n_candidates > 0
+    counts = np.asarray(result.n_violated[:1000]).copy()
+    counts[result.candidate_indices[0]] = 1  # a candidate with a violated sensor
+    _forge_part(folder, 0, "n_violated", counts.astype(np.int32))
+    with pytest.raises(ValueError, match="part-000000.n_violated.npy holds counts of violated sensors"):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)

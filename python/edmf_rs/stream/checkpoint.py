@@ -301,8 +301,7 @@ class Checkpoint:
                 loaded["candidates"] = (first, n, loaded["candidates"])
             else:
                 parts.check_candidates(path, loaded["candidates"], first, n)
-                mask = np.zeros(n, bool)
-                mask[loaded["candidates"] - first] = True
+                mask = loaded["candidates"] - first  # indexes the part's instances like the bitmap's mask
             if "n_violated" in loaded:
                 parts.check_violations(self.part_path(k, "n_violated"), loaded["n_violated"], n_sensors, mask)
             for name in names:

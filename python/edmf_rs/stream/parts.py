@@ -14,16 +14,6 @@ import numpy as np
 
 from . import atomic
 
-#: What each field holds: allowed dtypes, and whether rows are instances
-#: (``n_violated``) or candidates (the others).
-DTYPES = {
-    "candidates": (np.dtype(np.int64), np.dtype("<u8")),
-    "n_violated": (np.dtype(np.int32),),
-    "parameters": (np.dtype(np.float64),),
-    "predictions": (np.dtype(np.float64), np.dtype(np.float32)),
-}
-
-
 #: How a part stores its candidates: ``indices`` (int64, one per candidate)
 #: or ``bitmap`` (uint64 words, bit ``i % 64`` of word ``i // 64`` set iff
 #: the part's instance ``i`` is a candidate), whichever is smaller: with every
@@ -31,6 +21,16 @@ DTYPES = {
 #: writing, hashing and checking 8 bytes per candidate cost several times the
 #: falsification itself.
 FORMS = {"indices": np.dtype(np.int64), "bitmap": np.dtype("<u8")}
+
+
+#: What each field holds: allowed dtypes, and whether rows are instances
+#: (``n_violated``) or candidates (the others).
+DTYPES = {
+    "candidates": tuple(FORMS.values()),
+    "n_violated": (np.dtype(np.int32),),
+    "parameters": (np.dtype(np.float64),),
+    "predictions": (np.dtype(np.float64), np.dtype(np.float32)),
+}
 
 
 def name(k: int, field: str) -> str:
@@ -84,9 +84,10 @@ def check_candidates(path: Path, idx: np.ndarray, first: int, n_instances: int) 
                          f"{first}..{first + n_instances - 1} or not increasing; delete the folder to start over")
 
 
-def check_violations(path: Path, counts: np.ndarray, n_sensors: int, mask: np.ndarray) -> None:
-    """Violated-sensor counts lie in 0..n_sensors and are 0 at every candidate (``mask``)."""
-    if counts.size and (counts.min() < 0 or counts.max() > n_sensors) or np.any(counts[mask] != 0):
+def check_violations(path: Path, counts: np.ndarray, n_sensors: int, candidates: np.ndarray) -> None:
+    """Violated-sensor counts lie in 0..n_sensors and are 0 at every candidate
+    (``candidates``: a boolean mask of the part's instances, or their positions)."""
+    if counts.size and (counts.min() < 0 or counts.max() > n_sensors) or np.any(counts[candidates] != 0):
         raise ValueError(f"checkpoint: {path} holds counts of violated sensors out of range 0..{n_sensors} "
                          "or inconsistent with the candidates; delete the folder to start over")
 
