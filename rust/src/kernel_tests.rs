@@ -56,7 +56,7 @@ fn vector_kernels_match_portable_ones() {
     let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
     // Past 64 sensors screening stops at the first rejecting block (below,
     // whole rows are tested): both paths, with rows of partial blocks.
-    for k in (1..=50usize).chain([63, 64, 65, 80, 97, 130]) {
+    for k in (1..=50usize).chain([63, 64, 65, 80, 97, 130, 300]) {
         // Bounds differ from sensor to sensor, so a lane reading another
         // sensor's bounds shows up.
         let y: Vec<f64> = (0..k).map(|j| 0.25 * (j % 3) as f64).collect();
@@ -355,5 +355,28 @@ fn empty_intervals_and_nan_rows_match_portable() {
             diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
             check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64, {k} sensors"));
         }
+    }
+}
+
+/// Long rows keep their per-sensor counts in narrow lanes between flushes
+/// (every 65,536 rows): a call over more rows than that, with counts kept
+/// and without, gives the portable kernel's tally and counts.
+#[test]
+fn long_row_counts_survive_flushes() {
+    let (k, rows) = (65usize, 70_000usize);
+    let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let data: Vec<f64> = (0..rows * k).map(|_| 2.2 * crate::testing::uniform(&mut state) - 1.1).collect();
+    let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+    let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
+    let plan = ScreenPlan::new(&b, &vec![0; k]);
+    for isa in Isa::available() {
+        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        assert!(tw.per_sensor.iter().all(|&c| c > 0) && want.iter().any(|&n| n == 0));
+        check_bits(isa, m, &b, &plan, &want, &tw, "f64, past a flush");
+        let mut tw = Tally::zeros(k);
+        diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+        check_bits(isa, m32, &b, &plan, &want, &tw, "f32, past a flush");
     }
 }

@@ -32,57 +32,96 @@ unsafe fn group<T: Prediction>(row: &[T], accept: &[Vec<T>; 2], j: usize, lanes:
     (!T::inside512(lanes, p, low, high) & lanes, T::nan512(lanes, p))
 }
 
-/// Adds one to `counts[j + l]` for every lane `l` set in `out`, reading and
-/// writing whole vectors: `counts` is padded past the last sensor. Masked
-/// loads and stores here cost f32 rows of 50 sensors two thirds of their
-/// speed (AMD EPYC Zen 4: a masked store does not forward to the next row's
-/// load of the same counts, so every row waited for it).
+/// Adds one to sensor `j + l`'s count for every lane `l` set in `out`,
+/// reading and writing one whole vector: the counts are padded past the last
+/// sensor, u32 lanes for f32 and u64 for f64, one vector of counts per vector
+/// of predictions. Masked loads and stores here cost f32 rows of 50 sensors
+/// two thirds of their speed (AMD EPYC Zen 4: a masked store does not forward
+/// to the next row's load of the same counts, so every row waited for it).
 ///
 /// # Safety
-/// AVX-512F is available; `counts` holds `j + W512` values.
+/// AVX-512F is available; `counts` holds `j + W512` counts ([`PaddedCounts`]).
 #[inline(always)]
-unsafe fn add_counts<T: Prediction>(counts: &mut [u64], j: usize, out: u32) {
-    let ones = _mm512_set1_epi64(1);
-    for half in 0..T::W512 / 8 {
-        let c = counts.as_mut_ptr().add(j + 8 * half) as *mut __m512i;
+unsafe fn add_counts<T: Prediction>(counts: &mut PaddedCounts, j: usize, out: u32) {
+    if T::W512 == 16 {
+        let c = (counts.0.as_mut_ptr() as *mut u32).add(j) as *mut __m512i;
         let now = _mm512_loadu_si512(c);
-        _mm512_storeu_si512(c, _mm512_mask_add_epi64(now, (out >> (8 * half)) as __mmask8, now, ones));
+        _mm512_storeu_si512(c, _mm512_mask_add_epi32(now, out as __mmask16, now, _mm512_set1_epi32(1)));
+    } else {
+        let c = counts.0.as_mut_ptr().add(j) as *mut __m512i;
+        let now = _mm512_loadu_si512(c);
+        _mm512_storeu_si512(c, _mm512_mask_add_epi64(now, out as __mmask8, now, _mm512_set1_epi64(1)));
     }
 }
 
-/// Per-sensor counts padded to whole vectors, for [`add_counts`].
+/// Per-sensor counts padded to whole vectors, for [`add_counts`]: u32 lanes
+/// for f32 rows (in the same buffer), u64 for f64. Flushed into the tally at
+/// least every [`FLUSH_ROWS`] rows, so the u32 lanes cannot overflow.
 struct PaddedCounts(Vec<u64>);
+
+/// Rows between two flushes of [`PaddedCounts`].
+const FLUSH_ROWS: usize = 1 << 16;
 
 impl PaddedCounts {
     fn new(k: usize) -> Self {
         PaddedCounts(vec![0; k.div_ceil(16) * 16])
     }
 
-    /// Adds the counts into `per_sensor` (one per sensor).
-    fn add_to(&self, per_sensor: &mut [u64]) {
-        for (t, c) in per_sensor.iter_mut().zip(&self.0) {
-            *t += c;
+    /// Adds the counts into `per_sensor` (one per sensor) and zeroes them.
+    fn flush<T: Prediction>(&mut self, per_sensor: &mut [u64]) {
+        if T::W512 == 16 {
+            // SAFETY: the buffer holds twice as many u32 as u64, all initialised.
+            let narrow = unsafe { std::slice::from_raw_parts(self.0.as_ptr() as *const u32, 2 * self.0.len()) };
+            for (t, &c) in per_sensor.iter_mut().zip(narrow) {
+                *t += u64::from(c);
+            }
+        } else {
+            for (t, &c) in per_sensor.iter_mut().zip(&self.0) {
+                *t += c;
+            }
         }
+        self.0.fill(0);
     }
 }
 
 /// Rejecting-sensor count, NaN flag and first rejecting sensor of a row (the
-/// last sensor when none rejects); adds every rejection to `counts`. Whole
-/// vectors first, then one masked tail.
+/// last sensor when none rejects); adds every rejection to `counts`.
+///
+/// After a candidate row (`after_candidate`), the verdict comes first, one
+/// comparison pair a vector and nothing else (a NaN is outside every
+/// interval, so a candidate row holds none), and only a rejected row is
+/// attributed, in a second visit of its vectors, now in L1. After a rejected
+/// row, the row is attributed in one visit. Runs of candidates (every
+/// instance kept) thus cost about what screening does, and runs of rejected
+/// rows (most falsified) no more than before; the branch follows the data's
+/// runs, and the outcome does not depend on it. The attribution has no
+/// branch on each vector's outcome, which is random from row to row.
 #[inline]
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
-fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) -> (u32, bool, usize) {
+fn diagnose_row<T: Prediction>(
+    row: &[T],
+    b: &SensorBounds,
+    counts: &mut PaddedCounts,
+    after_candidate: bool,
+) -> (u32, bool, usize) {
     let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
-    assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && counts.len() >= k.div_ceil(w) * w);
+    assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && counts.0.len() >= k.div_ceil(w) * w);
     super::prefetch_ahead(row);
-    // `first` is the lowest rejecting position, or past the row: branch-free,
-    // since which sensor rejects varies at random from row to row.
+    // Whole vectors, then one masked tail.
+    let (whole, tail) = (k - k % w, prefix(k % w));
+    // SAFETY: AVX-512F is enabled; the lanes lie below `k`, within `row`,
+    // and the acceptance vectors are padded.
+    let rejecting = |j: usize, lanes: u32| unsafe { group(row, accept, j, lanes) };
+    if after_candidate {
+        let any = (0..whole).step_by(w).fold(0, |any, j| any | rejecting(j, prefix(w)).0);
+        if any | if tail != 0 { rejecting(whole, tail).0 } else { 0 } == 0 {
+            return (0, false, k.saturating_sub(1));
+        }
+    }
     let (mut n, mut nan, mut first) = (0u32, 0u32, usize::MAX);
-    let whole = k - k % w;
     let mut tally = |j: usize, lanes: u32| {
-        // SAFETY: AVX-512F is enabled; the lanes of `lanes` lie below `k`,
-        // within `row` and `counts`, and the acceptance vectors are padded.
-        let (out, nans) = unsafe { group(row, accept, j, lanes) };
+        let (out, nans) = rejecting(j, lanes);
+        // SAFETY: AVX-512F is enabled; `counts` is padded to whole vectors.
         unsafe { add_counts::<T>(counts, j, out) };
         n += out.count_ones();
         // Past the row when this vector has none (not j + 32: a later
@@ -94,8 +133,8 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
     for j in (0..whole).step_by(w) {
         tally(j, prefix(w));
     }
-    if whole < k {
-        tally(whole, prefix(k - whole));
+    if tail != 0 {
+        tally(whole, tail);
     }
     (n, nan != 0, first.min(k.saturating_sub(1)))
 }
@@ -203,11 +242,18 @@ pub fn diagnose_bits<T: Prediction>(
             None => {
                 let mut per_sensor = PaddedCounts::new(m.cols());
                 via_counts(m.rows(), counts, sink, |r0, r1, out| {
-                    diagnose_impl(m.slice_rows(r0, r1), b, out, t, |row, b, _| {
-                        diagnose_row(row, b, &mut per_sensor.0)
-                    })
+                    for s0 in (r0..r1).step_by(FLUSH_ROWS) {
+                        let s1 = (s0 + FLUSH_ROWS).min(r1);
+                        let part = &mut out[s0 - r0..s1 - r0];
+                        let mut after_candidate = false;
+                        diagnose_impl(m.slice_rows(s0, s1), b, part, t, |row, b, _| {
+                            let verdict = diagnose_row(row, b, &mut per_sensor, after_candidate);
+                            after_candidate = verdict.0 == 0;
+                            verdict
+                        });
+                        per_sensor.flush::<T>(&mut t.per_sensor);
+                    }
                 });
-                per_sensor.add_to(&mut t.per_sensor);
             }
         }
     }

@@ -27,14 +27,6 @@ use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use std::arch::x86_64::*;
 
-/// How far ahead of the period being tested its successors are prefetched
-/// (into L1). With the period's verdict work between loads, the hardware
-/// prefetcher alone left the loads waiting (about half the samples of a
-/// profile on the loads): measured side by side on an AMD EPYC (Zen 4),
-/// 2 KiB ahead gave speed / floor 0.66-0.91 against 0.55-0.70 without, for
-/// rows of 10 sensors with diagnostics; 4 and 8 KiB were no better.
-const PREFETCH_BYTES: usize = 2048;
-
 /// Most vectors in a period (the pattern's registers: two per vector).
 const MAX_VECTORS: usize = 8;
 
@@ -120,8 +112,9 @@ impl<T: Prediction> Periodic<T> {
     unsafe fn period_bits<const P: usize, const NAN: bool>(&self, p: *const T) -> (u128, u128) {
         let w = T::W512;
         for v in 0..P {
-            // One cache line a vector; a prefetch never faults (past the end is harmless).
-            _mm_prefetch::<_MM_HINT_T0>((p.add(v * w) as *const i8).wrapping_add(PREFETCH_BYTES));
+            // One cache line a vector, as far ahead as the row kernels (see
+            // `PREFETCH_BYTES`: 2 KiB into L1 was slower on Zen 4).
+            super::prefetch_line(p.add(v * w));
         }
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = (0u128, 0u128);

@@ -248,9 +248,13 @@ impl<T: Prediction> ShortRows<T> {
         for u in 0..total.div_ceil(R) {
             let n = R.min(total - u * R);
             let (bits, nan) = if R == 1 {
-                self.whole_unit::<R, G>(m.row_slice(u).expect("contiguous rows").as_ptr())
+                let row = m.row_slice(u).expect("contiguous rows");
+                super::prefetch_ahead(row);
+                self.whole_unit::<R, G>(row.as_ptr())
             } else if n == R {
-                self.whole_unit::<R, G>(packed.as_ptr().add(u * R * k))
+                let p = packed.as_ptr().add(u * R * k);
+                super::prefetch_line(p); // a unit is at most one vector
+                self.whole_unit::<R, G>(p)
             } else {
                 // The last, partial unit of packed rows.
                 self.unit(packed.as_ptr().add(u * R * k), n)
