@@ -26,6 +26,63 @@ pub struct SensorBounds {
     /// periodic kernel instead of being assembled lane by lane per block.
     pub(crate) cycle64: [Vec<f64>; 2],
     pub(crate) cycle32: [Vec<f32>; 2],
+    /// The periodic kernel's pattern for f64 and f32 rows (AVX-512 vectors of
+    /// 8 and 16 values), worked out once here rather than for every block.
+    pub(crate) period64: Option<Period>,
+    pub(crate) period32: Option<Period>,
+}
+
+/// Rows of `k` sensors stored back to back repeat their sensor pattern every
+/// `lcm(k, w)` values: `vectors` vectors of `w` holding `rows` rows, whose
+/// verdict bits form one string of `lcm(k, w)` bits (row `r` owns bits
+/// `r*k .. r*k + k`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Period {
+    /// Vectors per period.
+    pub vectors: usize,
+    /// Rows per period.
+    pub rows: usize,
+    /// Per row's field: every bit but the top one (screening's carry trick).
+    pub low_bits: u128,
+    /// Per row's field: the top bit.
+    pub top_bits: u128,
+    /// Every interval has `low <= high` (no NaN end, not empty): then a
+    /// value outside on both sides is NaN, and NaN costs no comparison.
+    pub proper: bool,
+}
+
+/// Most vectors in a period (the periodic kernel's registers: two per vector).
+pub const MAX_PERIOD_VECTORS: usize = 8;
+
+impl Period {
+    /// The period of rows of `k` sensors in vectors of `w` values, if the
+    /// periodic kernel takes them: more than one row per period (else a row
+    /// is read as whole vectors already), at most [`MAX_PERIOD_VECTORS`]
+    /// vectors and 128 verdict bits.
+    pub fn new(k: usize, w: usize, proper: bool) -> Option<Period> {
+        fn gcd(a: usize, b: usize) -> usize {
+            if b == 0 {
+                a
+            } else {
+                gcd(b, a % b)
+            }
+        }
+        if k == 0 || k.is_multiple_of(w) {
+            return None;
+        }
+        let lcm = k / gcd(k, w) * w;
+        // lcm <= 128 bits of verdicts; then k < 64 (k is not a multiple of w).
+        if lcm / w > MAX_PERIOD_VECTORS || lcm > 128 || k >= 64 {
+            return None;
+        }
+        let (vectors, rows) = (lcm / w, lcm / k);
+        let (mut low_bits, mut top_bits) = (0u128, 0u128);
+        for r in 0..rows {
+            low_bits |= ((1u128 << (k - 1)) - 1) << (r * k);
+            top_bits |= 1u128 << (r * k + k - 1);
+        }
+        Some(Period { vectors, rows, low_bits, top_bits, proper })
+    }
 }
 
 /// Values of the repeated acceptance intervals: the longest period of the
@@ -60,7 +117,11 @@ impl SensorBounds {
             [cycle(&accept64[0]), cycle(&accept64[1])],
             [cycle32(&accept32[0]), cycle32(&accept32[1])],
         );
+        let proper64 = (0..n).all(|j| accept64[0][j] <= accept64[1][j]);
+        let proper32 = (0..n).all(|j| accept32[0][j] <= accept32[1][j]);
         Ok(SensorBounds {
+            period64: Period::new(n, 8, proper64),
+            period32: Period::new(n, 16, proper32),
             cycle64,
             cycle32,
             measured: measured.to_vec(),

@@ -7,7 +7,7 @@
 //! (for diagnostics); `screen` only tells candidate or not, trying first the
 //! sensors that reject most and stopping as soon as one rejects.
 
-pub use crate::bounds::{ScreenPlan, SensorBounds, BLOCK};
+pub use crate::bounds::{Period, ScreenPlan, SensorBounds, BLOCK};
 pub use crate::candidates::BitSink;
 use crate::matrix::Matrix;
 
@@ -28,6 +28,8 @@ pub trait Prediction: Copy + Send + Sync + 'static + Lanes {
     fn accepted(b: &SensorBounds) -> &[Vec<Self>; 2];
     /// The same repeated over `bounds::CYCLE` values (see `SensorBounds`).
     fn cycled(b: &SensorBounds) -> &[Vec<Self>; 2];
+    /// The periodic kernel's pattern for rows of this type, if it takes them.
+    fn period(b: &SensorBounds) -> Option<Period>;
 }
 
 impl Prediction for f64 {
@@ -43,6 +45,10 @@ impl Prediction for f64 {
     fn cycled(b: &SensorBounds) -> &[Vec<f64>; 2] {
         &b.cycle64
     }
+    #[inline(always)]
+    fn period(b: &SensorBounds) -> Option<Period> {
+        b.period64
+    }
 }
 
 impl Prediction for f32 {
@@ -57,6 +63,10 @@ impl Prediction for f32 {
     #[inline(always)]
     fn cycled(b: &SensorBounds) -> &[Vec<f32>; 2] {
         &b.cycle32
+    }
+    #[inline(always)]
+    fn period(b: &SensorBounds) -> Option<Period> {
+        b.period32
     }
 }
 

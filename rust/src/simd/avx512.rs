@@ -179,7 +179,7 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -
 #[target_feature(enable = "avx512f")]
 fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Periodic<T>, &'a [T], usize)> {
     let data = m.packed_rows()?;
-    Periodic::<T>::period(m.cols()).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
+    T::period(b).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
     if !std::arch::is_x86_feature_detected!("bmi2") {
         return None;
     }

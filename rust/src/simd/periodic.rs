@@ -24,19 +24,10 @@
 //! Rows after the last whole period (fewer than `R`) go to the caller.
 
 use crate::candidates::BitSink;
-use crate::kernel::{Prediction, SensorBounds, Tally};
+use crate::kernel::{Period, Prediction, SensorBounds, Tally};
 use std::arch::x86_64::*;
 
-/// Most vectors in a period (the pattern's registers: two per vector).
-const MAX_VECTORS: usize = 8;
-
-fn gcd(a: usize, b: usize) -> usize {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
-    }
-}
+const MAX_VECTORS: usize = crate::bounds::MAX_PERIOD_VECTORS;
 
 /// The acceptance intervals of rows of `k` sensors in their period's pattern.
 pub struct Periodic<T: Prediction> {
@@ -57,44 +48,26 @@ pub struct Periodic<T: Prediction> {
 }
 
 impl<T: Prediction> Periodic<T> {
-    /// `(vectors, rows)` of the period of rows of `k` sensors, if this kernel
-    /// takes them: more than one row per period (else `ShortRows` reads a row
-    /// as whole vectors already) and at most `MAX_VECTORS` vectors.
-    pub fn period(k: usize) -> Option<(usize, usize)> {
-        let w = T::W512;
-        if k == 0 || k.is_multiple_of(w) {
-            return None;
-        }
-        let lcm = k / gcd(k, w) * w;
-        // lcm <= 128 bits of verdicts; then k < 64 (k is not a multiple of W).
-        (lcm / w <= MAX_VECTORS && lcm <= 128 && k < 64).then_some((lcm / w, lcm / k))
-    }
-
-    /// The pattern for `b` (rows of `b.len()` sensors).
+    /// The pattern for `b` (rows of `b.len()` sensors): whole-vector loads of
+    /// the repeated intervals (lane `l` of vector `v` is sensor
+    /// `(v * w + l) % k`) and the period worked out in `SensorBounds`. Built
+    /// once per block of rows, so nothing here scales with the sensors.
     ///
     /// # Safety
-    /// AVX-512F is available; `Self::period(b.len())` is `Some`.
+    /// AVX-512F is available; `T::period(b)` is `Some`.
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub unsafe fn new(b: &SensorBounds) -> Self {
         let (k, w, cycle) = (b.len(), T::W512, T::cycled(b));
-        let (vectors, rows) = Self::period(k).expect("a period this kernel takes");
+        let period = T::period(b).expect("a period this kernel takes");
         let full = u32::MAX >> (32 - w);
         assert!(cycle[0].len() >= MAX_VECTORS * w && cycle[1].len() >= MAX_VECTORS * w);
-        // Built once per block of rows: whole-vector loads of the repeated
-        // intervals (lane `l` of vector `v` is sensor `(v * w + l) % k`).
         let (mut low, mut high) = ([T::load512(full, cycle[0].as_ptr()); MAX_VECTORS], [T::load512(full, cycle[1].as_ptr()); MAX_VECTORS]);
-        for v in 1..vectors {
+        for v in 1..period.vectors {
             low[v] = T::load512(full, cycle[0].as_ptr().add(v * w));
             high[v] = T::load512(full, cycle[1].as_ptr().add(v * w));
         }
-        let (mut low_bits, mut top_bits) = (0u128, 0u128);
-        for r in 0..rows {
-            low_bits |= ((1u128 << (k - 1)) - 1) << (r * k);
-            top_bits |= 1u128 << (r * k + k - 1);
-        }
-        let accept = T::accepted(b);
-        let proper = (0..k).all(|j| accept[0][j].to_f64() <= accept[1][j].to_f64());
+        let Period { vectors, rows, low_bits, top_bits, proper } = period;
         Periodic { low, high, k, vectors, rows, low_bits, top_bits, proper }
     }
 
@@ -299,16 +272,21 @@ mod tests {
 
     #[test]
     fn periods_of_short_rows() {
-        // (vectors, rows): rows of 5 and 10 sensors, f32 and f64.
-        assert_eq!(Periodic::<f32>::period(5), Some((5, 16)));
-        assert_eq!(Periodic::<f32>::period(10), Some((5, 8)));
-        assert_eq!(Periodic::<f64>::period(5), Some((5, 8)));
-        assert_eq!(Periodic::<f64>::period(10), Some((5, 4)));
-        assert_eq!(Periodic::<f64>::period(3), Some((3, 8)));
+        // (vectors, rows): rows of 5 and 10 sensors, f32 (16 a vector) and f64 (8).
+        let period = |k, w| Period::new(k, w, true).map(|p| (p.vectors, p.rows));
+        assert_eq!(period(5, 16), Some((5, 16)));
+        assert_eq!(period(10, 16), Some((5, 8)));
+        assert_eq!(period(5, 8), Some((5, 8)));
+        assert_eq!(period(10, 8), Some((5, 4)));
+        assert_eq!(period(3, 8), Some((3, 8)));
         // Whole vectors per row, or a period too long: other kernels.
-        assert_eq!(Periodic::<f64>::period(16), None);
-        assert_eq!(Periodic::<f32>::period(16), None);
-        assert_eq!(Periodic::<f64>::period(9), None);
-        assert_eq!(Periodic::<f32>::period(9), None);
+        assert_eq!(period(16, 8), None);
+        assert_eq!(period(16, 16), None);
+        assert_eq!(period(9, 8), None);
+        assert_eq!(period(9, 16), None);
+        // Row 0's field of 5 bits: four low bits and the top one; 16 rows fill 80 bits.
+        let p = Period::new(5, 16, true).unwrap();
+        assert_eq!((p.low_bits & 0x1f, p.top_bits & 0x1f), (0xf, 0x10));
+        assert_eq!((p.low_bits | p.top_bits), (1u128 << 80) - 1);
     }
 }

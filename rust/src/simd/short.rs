@@ -248,13 +248,9 @@ impl<T: Prediction> ShortRows<T> {
         for u in 0..total.div_ceil(R) {
             let n = R.min(total - u * R);
             let (bits, nan) = if R == 1 {
-                let row = m.row_slice(u).expect("contiguous rows");
-                super::prefetch_ahead(row);
-                self.whole_unit::<R, G>(row.as_ptr())
+                self.whole_unit::<R, G>(m.row_slice(u).expect("contiguous rows").as_ptr())
             } else if n == R {
-                let p = packed.as_ptr().add(u * R * k);
-                super::prefetch_line(p); // a unit is at most one vector
-                self.whole_unit::<R, G>(p)
+                self.whole_unit::<R, G>(packed.as_ptr().add(u * R * k))
             } else {
                 // The last, partial unit of packed rows.
                 self.unit(packed.as_ptr().add(u * R * k), n)
