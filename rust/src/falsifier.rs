@@ -26,6 +26,12 @@ const BLOCK_ROWS: usize = 1024;
 /// Predictions per slab between two `stop` checks: a few milliseconds of
 /// work, large enough that handing each slab to the pool costs little.
 const SLAB_ELEMENTS: usize = 1 << 22;
+/// Predictions in a slab below which it runs on the calling thread: waking
+/// the pool's threads for it costs more than sharing the work (a hand-over
+/// to a sleeping pool took 0.1-0.2 ms on a 2-core VM, AMD EPYC: `falsify`
+/// of 100 rows of 10 sensors spent 0.24 ms of its 0.31 ms there). The
+/// blocks and their results are the same either way.
+const SERIAL_ELEMENTS: usize = 1 << 16;
 /// Rows diagnosed to learn the screening order: enough to rank the sensors,
 /// few enough that the slower full visit costs nothing measurable.
 const LEARN_ROWS: usize = 16 * BLOCK_ROWS;
@@ -274,14 +280,16 @@ impl Falsifier {
             let (bounds, plan) = (&self.bounds, &self.screen_plan);
             let verdicts = (slab_len, &mut *out, &mut *counts, &mut *words);
             // One hand-over to the pool per slab: waking it costs more than a
-            // slab's scheduling inside it.
-            let tally = pool.install(|| match (self.mode, plan) {
+            // slab's scheduling inside it; a small slab stays on this thread.
+            let serial = slab_len * n_m < SERIAL_ELEMENTS;
+            let run = || match (self.mode, plan) {
                 (Mode::Screen, Some(plan)) => {
-                    screen_parallel(slab, bounds, plan, verdicts, summing);
+                    screen_parallel(slab, bounds, plan, verdicts, summing, serial);
                     None
                 }
-                _ => Some(diagnose_parallel(slab, bounds, verdicts, summing)),
-            });
+                _ => Some(diagnose_parallel(slab, bounds, verdicts, summing, serial)),
+            };
+            let tally = if serial { run() } else { pool.install(run) };
             let found = counts.iter().sum::<usize>() as u64;
             self.candidates.append(base, slab_len as u64, words, found)?;
             if let Some(p) = pending.as_deref_mut() {
@@ -323,81 +331,88 @@ type Verdicts<'a> = (usize, &'a mut [u32], &'a mut [usize], &'a mut [u64]);
 /// One block's index, counts (empty when not kept), candidate count, candidate words and checksum slot.
 type BlockTask<'a> = (usize, (((&'a mut [u32], &'a mut usize), &'a mut [u64]), &'a mut Part));
 
-/// The block tasks of a slab: `task(k, rows of block k, its counts (empty
+/// The block tasks of a slab: `(k, rows of block k, its counts (empty
 /// when not kept), its candidate words, its checksum slot)`.
-fn blocks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part]) -> impl IndexedParallelIterator<Item = BlockTask<'a>> {
+fn blocks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part]) -> Vec<BlockTask<'a>> {
     let (rows, out, counts, words) = verdicts;
     // Counts, when kept, one block a task like the rest; else empty slices.
-    let per_block = if out.is_empty() { 0 } else { BLOCK_ROWS };
     let n_blocks = rows.div_ceil(BLOCK_ROWS);
-    let mut outs: Vec<&'a mut [u32]> = if per_block > 0 {
-        out.chunks_mut(BLOCK_ROWS).collect()
-    } else {
+    let mut outs: Vec<&'a mut [u32]> = if out.is_empty() {
         Vec::new()
+    } else {
+        out.chunks_mut(BLOCK_ROWS).collect()
     };
     outs.resize_with(n_blocks, Default::default);
-    outs.into_par_iter()
-        .zip(counts.par_iter_mut())
-        .zip(words.par_chunks_mut(BLOCK_ROWS / 64))
-        .zip(slots.par_iter_mut())
+    outs.into_iter()
+        .zip(counts.iter_mut())
+        .zip(words.chunks_mut(BLOCK_ROWS / 64))
+        .zip(slots.iter_mut())
         .enumerate()
+        .collect()
 }
 
-/// Runs in the caller's pool; each block's candidate count into `counts`,
-/// and, when summing, the checksum sums of its rows into its slot.
+/// Runs in the caller's pool (on this thread when `serial`); each block's
+/// candidate count into `counts`, and, when summing, the checksum sums of its
+/// rows into its slot.
 fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     verdicts: Verdicts<'_>,
     summing: Summing<'_>,
+    serial: bool,
 ) -> Tally {
     let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    blocks(verdicts, slots)
-        .fold(
-            || (Tally::zeros(n_m), Vec::new()),
-            |(mut t, mut buf), (k, (((o, count), w), slot))| {
-                let first = k * BLOCK_ROWS;
-                let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
-                w.fill(0);
-                let keep = !o.is_empty();
-                match sum_from {
-                    // Each 128 KiB summed right after the kernel read them (in L2).
-                    Some(base) => {
-                        *slot = digest::part_after(block, base + first as u64, &mut buf, |r0, r1| {
-                            let mut sink = BitSink::new(w, r0);
-                            let c = if keep { Some(&mut o[r0..r1]) } else { None };
-                            diagnose_bits_with(isa, block.slice_rows(r0, r1), b, c, &mut sink, &mut t);
-                            sink.finish();
-                        })
-                    }
-                    None => {
-                        let mut sink = BitSink::new(w, 0);
-                        let c = if keep { Some(&mut o[..]) } else { None };
-                        diagnose_bits_with(isa, block, b, c, &mut sink, &mut t);
-                        sink.finish();
-                    }
-                }
-                *count = count_bits(w);
-                (t, buf)
-            },
-        )
+    let task = |(mut t, mut buf): (Tally, Vec<f64>), (k, (((o, count), w), slot)): BlockTask<'_>| {
+        let first = k * BLOCK_ROWS;
+        let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
+        w.fill(0);
+        let keep = !o.is_empty();
+        match sum_from {
+            // Each 128 KiB summed right after the kernel read them (in L2).
+            Some(base) => {
+                *slot = digest::part_after(block, base + first as u64, &mut buf, |r0, r1| {
+                    let mut sink = BitSink::new(w, r0);
+                    let c = if keep { Some(&mut o[r0..r1]) } else { None };
+                    diagnose_bits_with(isa, block.slice_rows(r0, r1), b, c, &mut sink, &mut t);
+                    sink.finish();
+                })
+            }
+            None => {
+                let mut sink = BitSink::new(w, 0);
+                let c = if keep { Some(&mut o[..]) } else { None };
+                diagnose_bits_with(isa, block, b, c, &mut sink, &mut t);
+                sink.finish();
+            }
+        }
+        *count = count_bits(w);
+        (t, buf)
+    };
+    let tasks = blocks(verdicts, slots);
+    if serial {
+        return tasks.into_iter().fold((Tally::zeros(n_m), Vec::new()), task).0;
+    }
+    tasks
+        .into_par_iter()
+        .fold(|| (Tally::zeros(n_m), Vec::new()), task)
         .map(|(t, _)| t)
         .reduce(|| Tally::zeros(n_m), Tally::merge)
 }
 
-/// Runs in the caller's pool; each block's candidate count into `counts`,
-/// and, when summing, the checksum sums of its rows into its slot.
+/// Runs in the caller's pool (on this thread when `serial`); each block's
+/// candidate count into `counts`, and, when summing, the checksum sums of its
+/// rows into its slot.
 fn screen_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     plan: &ScreenPlan,
     verdicts: Verdicts<'_>,
     summing: Summing<'_>,
+    serial: bool,
 ) {
     let (isa, rows) = (Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    blocks(verdicts, slots).for_each_init(Vec::new, |buf, (k, (((_, count), w), slot))| {
+    let task = |buf: &mut Vec<f64>, (k, (((_, count), w), slot)): BlockTask<'_>| {
         let first = k * BLOCK_ROWS;
         let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
         w.fill(0);
@@ -417,7 +432,14 @@ fn screen_parallel<T: Prediction + Value>(
             }
         }
         *count = count_bits(w);
-    })
+    };
+    let tasks = blocks(verdicts, slots);
+    if serial {
+        let mut buf = Vec::new();
+        tasks.into_iter().for_each(|t| task(&mut buf, t));
+    } else {
+        tasks.into_par_iter().for_each_init(Vec::new, task);
+    }
 }
 
 #[cfg(test)]

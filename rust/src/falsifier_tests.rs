@@ -28,7 +28,10 @@ fn run(data: &[f64], n_m: usize, chunk_rows: usize, threads: usize, mode: Mode) 
 
 #[test]
 fn result_is_independent_of_chunking_threads_and_mode() {
-    let (n, n_m) = (20_000, 3);
+    let (n, n_m) = (40_000, 3);
+    // Whole: one slab, shared by the pool; in chunks of 777 or 1500 rows:
+    // each slab on the calling thread.
+    assert!(n * n_m > SERIAL_ELEMENTS && 1500 * n_m < SERIAL_ELEMENTS);
     let data = predictions(n, n_m);
     let a = run(&data, n_m, n, 1, Mode::Diagnose);
     let b = run(&data, n_m, 777, 2, Mode::Diagnose);
