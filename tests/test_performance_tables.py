@@ -54,3 +54,23 @@ def test_side_by_side_figures_match_the_recorded_runs():
     for case in ("5 float32 typical scr", "5 float32 worst diag", "5 float64 worst diag", "10 float64 worst diag",
                  "200 float32 worst diag", "200 float64 worst diag", "10 float32 typical diag"):
         assert f"from {span('old', case)} to {span('main', case)}" in page, case
+
+
+def test_small_call_figures_match_the_recorded_runs():
+    text = (ROOT / "benches" / "results-small-calls.txt").read_text()
+    medians = defaultdict(list)
+    for section in text.split("\n=== ")[1:]:
+        version = section.split(",")[0]
+        for m in re.finditer(r"^\s+(\d+)\s+(\d+)\s+\d+$", section, re.M):
+            medians[(version, int(m[1]))].append(int(m[2]))
+    assert {len(v) for v in medians.values()} == {3}
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+
+    def span(version, rows):
+        v = medians[(version, rows)]
+        return f"{min(v)}-{max(v)} us"
+
+    assert f"100 rows took {span('old', 100)} before and {span('main', 100)} after" in page
+    assert f"1,000 rows {span('old', 1000)} and {span('main', 1000)}" in page
+    assert f"6,000 rows {span('old', 6000)} and {span('main', 6000)}" in page
+    assert f"{span('old', 7000)} and {span('main', 7000)}" in page
