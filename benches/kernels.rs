@@ -5,7 +5,7 @@
 //! "typical" falsifies over 90 % of them.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use edmf_core::kernel::{diagnose_with, screen_with, ScreenPlan, SensorBounds};
+use edmf_core::kernel::{diagnose_bits_with, diagnose_with, screen_with, BitSink, ScreenPlan, SensorBounds};
 use edmf_core::{shortest_intervals, Falsifier, Isa, Matrix, Mode, Tally, Thresholds};
 use std::hint::black_box;
 use std::time::Duration;
@@ -142,6 +142,46 @@ fn short_rows(c: &mut Criterion) {
     }
 }
 
+/// Long rows (100 and 200 sensors; f64 and f32) with diagnostics, the kernel
+/// alone on one thread at the widest level: worst case (every row a
+/// candidate: the verdict-first path) and typical (about 90 % falsified:
+/// every rejected row attributed), 8 MB of predictions, bits into a sink as
+/// the falsifier writes them. `cargo bench -- long_rows`.
+fn long_rows(c: &mut Criterion) {
+    let isa = Isa::detect();
+    for n_m in [100usize, 200] {
+        let n = (1 << 20) / n_m;
+        let data = values(n * n_m);
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let mut words = vec![0u64; n.div_ceil(64)];
+        let mut group = c.benchmark_group(format!("long_rows_{n_m}"));
+        group.throughput(Throughput::Elements(n as u64));
+        // Typical: about 1.5 % of values outside each sensor's interval.
+        for (case, half_width) in [("worst", 10.0), ("typical", 2.4)] {
+            let b =
+                SensorBounds::new(&vec![0.0; n_m], &vec![-half_width; n_m], &vec![half_width; n_m]).unwrap();
+            let m = Matrix::row_major(&data, n, n_m).unwrap();
+            let m32 = Matrix::row_major(&data32, n, n_m).unwrap();
+            for (dtype, is32) in [("f64", false), ("f32", true)] {
+                group.bench_function(BenchmarkId::new(format!("{case}/diagnose/{dtype}"), format!("{isa:?}")), |bench| {
+                    bench.iter(|| {
+                        let mut t = Tally::zeros(n_m);
+                        let mut sink = BitSink::new(&mut words, 0);
+                        if is32 {
+                            diagnose_bits_with(isa, black_box(m32), &b, None, &mut sink, &mut t);
+                        } else {
+                            diagnose_bits_with(isa, black_box(m), &b, None, &mut sink, &mut t);
+                        }
+                        sink.finish();
+                        t.invalid
+                    })
+                });
+            }
+        }
+        group.finish();
+    }
+}
+
 /// A plain sum at the widest vectors this CPU has: the fastest way to read.
 fn bare_sum(values: &[f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
@@ -225,6 +265,6 @@ fn thresholds(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
-    targets = falsify, isa_levels, short_rows, memory_floor, thresholds
+    targets = falsify, isa_levels, short_rows, long_rows, memory_floor, thresholds
 }
 criterion_main!(benches);

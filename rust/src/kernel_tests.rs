@@ -359,14 +359,19 @@ fn empty_intervals_and_nan_rows_match_portable() {
 }
 
 /// Long rows keep their per-sensor counts in narrow lanes between flushes
-/// (every 65,536 rows): a call over more rows than that, with counts kept
-/// and without, gives the portable kernel's tally and counts.
+/// (every 65,536 rows), and take the verdict first after candidates: a call
+/// over more rows than that, starting with a run of candidates, with counts
+/// kept and without, gives the portable kernel's tally and counts.
 #[test]
 fn long_row_counts_survive_flushes() {
     let (k, rows) = (65usize, 70_000usize);
     let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    let data: Vec<f64> = (0..rows * k).map(|_| 2.2 * crate::testing::uniform(&mut state) - 1.1).collect();
+    // Runs of ten candidates (the verdict-first path) every fifty rows, the
+    // other rows mostly rejected.
+    let data: Vec<f64> = (0..rows * k)
+        .map(|i| (2.2 * crate::testing::uniform(&mut state) - 1.1) * if (i / k) % 50 < 10 { 0.5 } else { 1.0 })
+        .collect();
     let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
     let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
     let plan = ScreenPlan::new(&b, &vec![0; k]);

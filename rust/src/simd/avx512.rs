@@ -87,16 +87,17 @@ impl PaddedCounts {
 /// Rejecting-sensor count, NaN flag and first rejecting sensor of a row (the
 /// last sensor when none rejects); adds every rejection to `counts`.
 ///
-/// After a candidate row (`after_candidate`), the verdict comes first, one
-/// comparison pair a vector and nothing else (a NaN is outside every
-/// interval, so a candidate row holds none), and only a rejected row is
-/// attributed, in a second visit of its vectors, now in L1. After a rejected
-/// row, the row is attributed in one visit, as before. Runs of candidates
-/// (every instance kept) thus cost about what screening does: f32 rows of
-/// 200 sensors, one thread, from cache, 20 -> 27 GB/s (AMD EPYC, Zen 4). The
-/// branch follows the data's runs; the outcome does not depend on it. The
-/// attribution has no branch on each vector's outcome, which is random from
-/// row to row.
+/// After candidate rows (`after_candidate`; the caller asks for it after
+/// two in a row), the verdict comes first, one comparison pair a vector and
+/// nothing else (a NaN is outside every interval, so a candidate row holds
+/// none), and only a rejected row is attributed, in a second visit of its
+/// vectors, now in L1. Otherwise the row is attributed in one visit, as
+/// before. Runs of candidates (every instance kept) thus cost about what
+/// screening does: f32 rows of 200 sensors, one thread, from cache, 13.9-14.0
+/// -> 23.6-29.7 M rows/s, most falsified unchanged (`cargo bench -- long_rows`,
+/// AMD EPYC Zen 4, `benches/results-long-rows.txt`). The branch follows the
+/// data's runs; the outcome does not depend on it. The attribution has no
+/// branch on each vector's outcome, which is random from row to row.
 #[inline]
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 fn diagnose_row<T: Prediction>(
@@ -115,7 +116,8 @@ fn diagnose_row<T: Prediction>(
     let rejecting = |j: usize, lanes: u32| unsafe { group(row, accept, j, lanes) };
     if after_candidate {
         let any = (0..whole).step_by(w).fold(0, |any, j| any | rejecting(j, prefix(w)).0);
-        if any | if tail != 0 { rejecting(whole, tail).0 } else { 0 } == 0 {
+        let in_tail = if tail != 0 { rejecting(whole, tail).0 } else { 0 };
+        if (any | in_tail) == 0 {
             return (0, false, k.saturating_sub(1));
         }
     }
@@ -246,10 +248,13 @@ pub fn diagnose_bits<T: Prediction>(
                     for s0 in (r0..r1).step_by(FLUSH_ROWS) {
                         let s1 = (s0 + FLUSH_ROWS).min(r1);
                         let part = &mut out[s0 - r0..s1 - r0];
-                        let mut after_candidate = false;
+                        // Candidates in a row so far: the verdict comes first after two
+                        // (after one, most falsified rows with candidates scattered
+                        // among them paid for a test they did not need).
+                        let mut run = 0u32;
                         diagnose_impl(m.slice_rows(s0, s1), b, part, t, |row, b, _| {
-                            let verdict = diagnose_row(row, b, &mut per_sensor, after_candidate);
-                            after_candidate = verdict.0 == 0;
+                            let verdict = diagnose_row(row, b, &mut per_sensor, run >= 2);
+                            run = if verdict.0 == 0 { run.saturating_add(1) } else { 0 };
                             verdict
                         });
                         per_sensor.flush::<T>(&mut t.per_sensor);
