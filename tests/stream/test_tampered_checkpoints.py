@@ -36,6 +36,12 @@ def _load(folder):
     return json.loads((folder / "state.json").read_text())
 
 
+def _refused(folder, predictions, y, t, match, **kwargs):
+    """Resuming from ``folder`` is refused with a ValueError matching ``match``."""
+    with pytest.raises(ValueError, match=match):
+        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False, **kwargs)
+
+
 def _forge_part(folder, k, field, array):
     """Replaces a part and re-signs it in the state, as a careful forger would."""
     buf = io.BytesIO()
@@ -62,8 +68,7 @@ def test_parts_copied_from_another_run_are_refused(tmp_path):
     _finished(tmp_path / "b", seed=1)
     for name in ("part-000000.candidates.npy", "part-000000.n_violated.npy"):
         shutil.copy(tmp_path / "b" / name, tmp_path / "a" / name)
-    with pytest.raises(ValueError, match="part-000000.candidates.npy does not have the checksum"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=tmp_path / "a", progress=False)
+    _refused(tmp_path / "a", predictions, y, t, "part-000000.candidates.npy does not have the checksum")
 
 
 @pytest.mark.parametrize("array, match", [
@@ -79,9 +84,7 @@ def test_forged_candidate_indices_are_refused(tmp_path, array, match):
     state["parts"][1].update(n_candidates=len(array), candidates="indices")
     state_file.write(folder / "state.json", state)
     _forge_part(folder, 1, "candidates", array)
-    with pytest.raises(ValueError, match=f"part-000001.candidates.npy .*{match}"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, keep_violations=False, checkpoint=folder,
-                        progress=False)
+    _refused(folder, predictions, y, t, f"part-000001.candidates.npy .*{match}", keep_violations=False)
 
 
 def _words(bits):
@@ -106,9 +109,7 @@ def test_forged_candidate_bitmaps_are_refused(tmp_path, array, n_candidates, mat
     state["parts"][1]["n_candidates"] = n_candidates
     state_file.write(folder / "state.json", state)
     _forge_part(folder, 1, "candidates", array)
-    with pytest.raises(ValueError, match=f"part-000001.candidates.npy .*{match}"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, keep_violations=False, checkpoint=folder,
-                        progress=False)
+    _refused(folder, predictions, y, t, f"part-000001.candidates.npy .*{match}", keep_violations=False)
 
 
 def test_an_unknown_candidate_form_is_refused(tmp_path):
@@ -128,11 +129,9 @@ def test_forged_violation_counts_are_refused(tmp_path):
     counts = np.asarray(result.n_violated[:1000]).copy()
     for bad in (np.where(counts == 0, 0, N_M + 1), np.where(counts == 0, 1, counts)):
         _forge_part(folder, 0, "n_violated", bad.astype(np.int32))
-        with pytest.raises(ValueError, match="part-000000.n_violated.npy holds counts of violated sensors"):
-            edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+        _refused(folder, predictions, y, t, "part-000000.n_violated.npy holds counts of violated sensors")
     _forge_part(folder, 0, "n_violated", counts.astype(np.int64))
-    with pytest.raises(ValueError, match="part-000000.n_violated.npy holds a 1-D int64 array, expected 1-D int32"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    _refused(folder, predictions, y, t, "part-000000.n_violated.npy holds a 1-D int64 array, expected 1-D int32")
 
 
 def test_hand_edited_tallies_are_refused(tmp_path):
@@ -141,12 +140,10 @@ def test_hand_edited_tallies_are_refused(tmp_path):
     state = _load(folder)
     state["tally"]["per_sensor_falsified"][0] += 1
     (folder / "state.json").write_text(json.dumps(state))  # checksum left as it was
-    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*checksum"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    _refused(folder, predictions, y, t, "state.json is not an edmf_rs checkpoint state .*checksum")
     state["tally"]["per_sensor_falsified"][0] = state["n_done"] + 1  # re-signed, but impossible
     state_file.write(folder / "state.json", state)
-    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*range"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    _refused(folder, predictions, y, t, "state.json is not an edmf_rs checkpoint state .*range")
 
 
 @pytest.mark.parametrize("text, why", [
@@ -176,8 +173,7 @@ def test_a_forged_huge_count_is_a_clean_error(tmp_path):
     canonical = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
     state["checksum"] = hashlib.sha256(canonical).hexdigest()
     (folder / "state.json").write_text(json.dumps(state))
-    with pytest.raises(ValueError, match="state.json is not an edmf_rs checkpoint state .*int64"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    _refused(folder, predictions, y, t, "state.json is not an edmf_rs checkpoint state .*int64")
 
 
 def test_a_fifo_in_place_of_a_file_is_refused_not_waited_on(tmp_path):
@@ -202,5 +198,4 @@ def test_forged_violation_counts_beside_candidate_indices_are_refused(tmp_path):
     counts = np.asarray(result.n_violated[:1000]).copy()
     counts[result.candidate_indices[0]] = 1  # a candidate with a violated sensor
     _forge_part(folder, 0, "n_violated", counts.astype(np.int32))
-    with pytest.raises(ValueError, match="part-000000.n_violated.npy holds counts of violated sensors"):
-        edmf_rs.falsify(predictions, y, t, chunk_rows=1000, checkpoint=folder, progress=False)
+    _refused(folder, predictions, y, t, "part-000000.n_violated.npy holds counts of violated sensors")

@@ -39,20 +39,30 @@ def identification_fields(record: IdentificationTable) -> dict:
     return {f.name: getattr(record, f.name) for f in fields(IdentificationTable)}
 
 
+def non_regular(path: Path) -> str | None:
+    """What ``path`` is when it is not a regular file ("a directory", "a FIFO
+    (named pipe)", "a device or other special file"), None when it is one.
+    FIFOs and devices are refused by the callers: reading a FIFO blocks until
+    something writes to it. ``os.stat``'s OSError (e.g. FileNotFoundError) passes."""
+    mode = os.stat(path).st_mode
+    if stat.S_ISREG(mode):
+        return None
+    return "a directory" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else \
+        "a device or other special file"
+
+
 def load_toml(path: Path) -> Table:
     """The project file's top-level table; a missing file, a directory, a FIFO,
     invalid TOML or text that is not UTF-8 is a :class:`ProjectError` naming the file."""
     label = str(path)
     try:
-        mode = os.stat(path).st_mode
+        kind = non_regular(path)
     except FileNotFoundError:
         raise ProjectError(f"{label}: no such project file (looked in {path.parent.resolve()})") from None
     except OSError as exc:
         raise ProjectError(f"{label}: cannot read the project file: {exc.strerror}") from None
-    if stat.S_ISDIR(mode):
-        raise ProjectError(f"{label}: expected a project file (TOML), got a directory")
-    if not stat.S_ISREG(mode):
-        raise ProjectError(f"{label}: expected a project file (TOML), got a FIFO or device (not a regular file)")
+    if kind:
+        raise ProjectError(f"{label}: expected a project file (TOML), got {kind}")
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)

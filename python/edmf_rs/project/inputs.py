@@ -5,14 +5,13 @@ file, the key or line, and what was expected."""
 from __future__ import annotations
 
 import importlib
-import os
-import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from .identification import non_regular
 from .schema import ProjectError, Sensor
 
 TABLE_SUFFIXES = (".npy", ".csv", ".parquet")
@@ -20,17 +19,14 @@ TABLE_SUFFIXES = (".npy", ".csv", ".parquet")
 
 def regular_file(file: Path, label: str, key: str) -> Path:
     """``file`` when it is a regular file; else a :class:`ProjectError` naming the
-    project file, the key and the folder searched. FIFOs, devices and folders
-    are refused (reading a FIFO would block until something writes to it)."""
+    project file, the key and the folder searched (see :func:`non_regular`)."""
     try:
-        mode = os.stat(file).st_mode
+        kind = non_regular(file)
     except FileNotFoundError:
         raise ProjectError(f"{label}: {key}: no such file '{file.name}' (looked in {file.parent.resolve()})") from None
     except OSError as exc:
         raise ProjectError(f"{label}: {key}: cannot read '{file}': {exc.strerror}") from None
-    if not stat.S_ISREG(mode):
-        kind = "a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else \
-            "not a regular file"
+    if kind:
         raise ProjectError(f"{label}: {key}: expected a regular file, '{file}' is {kind}")
     return file
 

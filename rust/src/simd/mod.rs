@@ -29,10 +29,9 @@ const PREFETCH_BYTES: usize = 8192;
 /// so addresses past the end of the data are harmless.
 #[inline(always)]
 pub fn prefetch_ahead<T>(row: &[T]) {
-    let ahead = (row.as_ptr() as *const i8).wrapping_add(PREFETCH_BYTES);
+    let start = row.as_ptr() as *const i8;
     for line in (0..std::mem::size_of_val(row)).step_by(64) {
-        // SAFETY: SSE is part of x86-64; prefetching any address is allowed.
-        unsafe { _mm_prefetch::<_MM_HINT_T1>(ahead.wrapping_add(line)) };
+        prefetch_line(start.wrapping_add(line));
     }
 }
 

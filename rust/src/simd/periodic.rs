@@ -34,17 +34,8 @@ pub struct Periodic<T: Prediction> {
     low: [T::V512; MAX_VECTORS],
     high: [T::V512; MAX_VECTORS],
     k: usize,
-    /// Vectors per period.
-    vectors: usize,
-    /// Rows per period.
-    rows: usize,
-    /// Per field: every bit but the top one (screening's carry trick).
-    low_bits: u128,
-    /// Per field: the top bit.
-    top_bits: u128,
-    /// Every interval has `low <= high` (no NaN end, not empty): then a
-    /// value outside on both sides is NaN, and NaN costs no comparison.
-    proper: bool,
+    /// Vectors, rows, field bits and proper intervals (see [`Period`]).
+    period: Period,
 }
 
 impl<T: Prediction> Periodic<T> {
@@ -67,13 +58,12 @@ impl<T: Prediction> Periodic<T> {
             low[v] = T::load512(full, cycle[0].as_ptr().add(v * w));
             high[v] = T::load512(full, cycle[1].as_ptr().add(v * w));
         }
-        let Period { vectors, rows, low_bits, top_bits, proper } = period;
-        Periodic { low, high, k, vectors, rows, low_bits, top_bits, proper }
+        Periodic { low, high, k, period }
     }
 
     /// Rows per period: the caller hands the rows after the last whole period elsewhere.
     pub fn rows(&self) -> usize {
-        self.rows
+        self.period.rows
     }
 
     /// Rejecting lanes and NaN lanes of the period starting at `p`, one bit
@@ -91,7 +81,7 @@ impl<T: Prediction> Periodic<T> {
         }
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = (0u128, 0u128);
-        if NAN && self.proper {
+        if NAN && self.period.proper {
             for v in 0..P {
                 let x = T::load512(full, p.add(v * w));
                 let (ge, le) = T::sides512(x, self.low[v], self.high[v]);
@@ -119,8 +109,8 @@ impl<T: Prediction> Periodic<T> {
     /// BMI2 is available.
     #[inline(always)]
     unsafe fn any_per_row(&self, bits: u128) -> (u128, u32) {
-        let tops = (((bits & self.low_bits) + self.low_bits) | bits) & self.top_bits;
-        let (top_lo, top_hi) = (self.top_bits as u64, (self.top_bits >> 64) as u64);
+        let tops = (((bits & self.period.low_bits) + self.period.low_bits) | bits) & self.period.top_bits;
+        let (top_lo, top_hi) = (self.period.top_bits as u64, (self.period.top_bits >> 64) as u64);
         let rows = _pext_u64(tops as u64, top_lo) as u32
             | (_pext_u64((tops >> 64) as u64, top_hi) as u32).wrapping_shl(top_lo.count_ones());
         (tops, rows)
@@ -133,7 +123,7 @@ impl<T: Prediction> Periodic<T> {
     #[inline]
     #[target_feature(enable = "avx512f,bmi2,popcnt")]
     pub unsafe fn screen(&self, data: &[T], periods: usize, sink: &mut BitSink) {
-        match self.vectors {
+        match self.period.vectors {
             1 => self.screen_p::<1>(data, periods, sink),
             2 => self.screen_p::<2>(data, periods, sink),
             3 => self.screen_p::<3>(data, periods, sink),
@@ -150,8 +140,8 @@ impl<T: Prediction> Periodic<T> {
     /// spilled them to the stack).
     #[inline(always)]
     unsafe fn screen_p<const P: usize>(&self, data: &[T], periods: usize, sink: &mut BitSink) {
-        let (k, rows) = (self.k, self.rows);
-        assert!(P == self.vectors);
+        let (k, rows) = (self.k, self.period.rows);
+        assert!(P == self.period.vectors);
         assert!(data.len() >= periods * rows * k);
         let all = u32::MAX >> (32 - rows);
         for q in 0..periods {
@@ -183,7 +173,7 @@ impl<T: Prediction> Periodic<T> {
         sink: &mut BitSink,
         t: &mut Tally,
     ) {
-        match self.vectors {
+        match self.period.vectors {
             1 => self.diagnose_p::<1, COUNTS>(data, periods, counts, sink, t),
             2 => self.diagnose_p::<2, COUNTS>(data, periods, counts, sink, t),
             3 => self.diagnose_p::<3, COUNTS>(data, periods, counts, sink, t),
@@ -205,8 +195,8 @@ impl<T: Prediction> Periodic<T> {
         sink: &mut BitSink,
         t: &mut Tally,
     ) {
-        let (k, rows, w) = (self.k, self.rows, T::W512);
-        assert!(P == self.vectors);
+        let (k, rows, w) = (self.k, self.period.rows, T::W512);
+        assert!(P == self.period.vectors);
         assert!(data.len() >= periods * rows * k && t.per_sensor.len() == k);
         assert!(!COUNTS || counts.len() >= periods * rows);
         let field = (1u64 << k) - 1; // k < 64 (`period`)
