@@ -1,6 +1,6 @@
-//! Criterion benchmarks of the checkpoint's block checksum (`digest.rs`)
-//! beside the screening kernel it runs next to, on the same bytes, one
-//! thread: `cargo bench --bench checksum`. Their ratio is the checksum's
+//! Criterion benchmarks of the checkpoint's block checksum (`digest.rs`),
+//! float64 and float32, beside XXH3-128 and the screening kernel it runs
+//! next to, on the same bytes, one thread: `cargo bench --bench checksum`. Their ratio is the checksum's
 //! least cost in a checkpointed run whose falsifier is not waiting on memory
 //! (see `benches/hash_cost.py`). No Python involved.
 
@@ -20,6 +20,8 @@ fn checksum(c: &mut Criterion) {
     for kib in [16usize, 256, 64 << 10] {
         let n = kib * 1024 / 8;
         let data: Vec<f64> = (0..n).map(|i| (i % 977) as f64 * 0.37 - 150.0).collect();
+        // The same bytes as float32 values (summed at their own width since fletcher64x8/2).
+        let narrow: Vec<f32> = (0..2 * n).map(|i| (i % 977) as f32 * 0.37 - 150.0).collect();
         group.throughput(Throughput::Bytes((n * 8) as u64));
         for isa in Isa::available() {
             group.bench_function(BenchmarkId::new(format!("sum/{isa:?}"), kib), |b| {
@@ -29,7 +31,20 @@ fn checksum(c: &mut Criterion) {
                     s
                 })
             });
+            group.bench_function(BenchmarkId::new(format!("sum32/{isa:?}"), kib), |b| {
+                b.iter(|| {
+                    let mut s = Sums::default();
+                    sum_with(isa, black_box(&narrow), 0, &mut s);
+                    s
+                })
+            });
         }
+        // XXH3-128 of the same bytes, the hash the issue suggested: what a
+        // hashed instead of summed block checksum would cost.
+        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        group.bench_function(BenchmarkId::new("xxh3_128", kib), |b| {
+            b.iter(|| twox_hash::XxHash3_128::oneshot(black_box(&bytes)))
+        });
         // Screening the same bytes as rows of N_M sensors, every row a candidate (no early exit).
         let rows = n / N_M;
         let measured = vec![0.0; N_M];

@@ -1,7 +1,7 @@
 """What the checkpoint's block checksum costs beside the falsification it guards.
 
 A checkpointed run sums every row it falsifies into the block checksum
-``fletcher64x8/1`` (``rust/src/digest.rs``), in the falsifier's own pass
+``fletcher64x8/2`` (``rust/src/digest.rs``), in the falsifier's own pass
 (``Falsifier.update(chunk, digest=...)``): each 128 KiB of rows is summed
 by the thread that has just screened it, while the rows are in that core's
 L2 cache. This times, side by side in one run, the same in-memory chunks through
@@ -20,13 +20,12 @@ shared machine). Target: on/off below 1.05.
 
 What bounds it (``cargo bench --bench checksum`` times both on the same
 bytes, one thread; ``results-checksum.txt``): the checksum must read every
-byte (a 64-byte load and five vector operations per 8 float64 words, twice
-that per 16 float32 values after widening). On an AMD EPYC Zen 4 it sums
-55-67 GiB/s per core from L1 or L2 and the screening kernel reads about
-25 GiB/s, whether the data are in cache or in memory (it is not waiting on
-memory, so there is no idle time to hide the sums in): summing what it has
-just read adds over a third to its CPU time, and even two vector additions
-per 64 bytes would add about a tenth.
+byte (a 64-byte load and five vector operations per 64 bytes, float64 or
+float32 alike: the values' bits are summed at their stored width). On an AMD
+EPYC Zen 4 it sums 55-76 GiB/s per core from L1 or L2 (XXH3-128: 42-50 GiB/s)
+and the screening kernel reads 22-30 GiB/s, whether the data are in cache or
+in memory (it is not waiting on memory, so there is no idle time to hide the
+sums in): summing what it has just read adds about a quarter to its CPU time.
 
 The second table is the streaming rate the checksum is meant to be cheap
 beside: ``edmf_rs.falsify`` over a ``.npy`` file (warm in the page cache, as

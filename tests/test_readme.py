@@ -91,11 +91,15 @@ def test_the_checksum_cost_is_the_benchmark_file():
 
 
 def test_the_checksum_rates_are_the_benchmark_file():
-    """The README's checksum and screening rates are the medians in benches/results-checksum.txt (L1 and L2)."""
+    """The README's checksum, XXH3 and screening rates are the medians of the last runs in
+    benches/results-checksum.txt (L1 and L2)."""
     text = (README.parent / "benches" / "results-checksum.txt").read_text()
     medians = dict(re.findall(r"checksum/(\S+)\s+(?:time:.*\n)?\s+thrpt:\s+\[\S+ GiB/s ([\d.]+) GiB/s", text))
-    sums = [float(medians[f"sum/{isa}/{kib}"]) for isa in ("Avx2", "Avx512") for kib in (16, 256)]
+    sums = [float(medians[f"{dtype}/{isa}/{kib}"]) for dtype in ("sum", "sum32") for isa in ("Avx2", "Avx512")
+            for kib in (16, 256)]
+    xxh3 = [float(medians[f"xxh3_128/{kib}"]) for kib in (16, 256)]
     screen = [float(medians[f"screen/worst/{kib}"]) for kib in (16, 256)]
     readme = " ".join(README.read_text(encoding="utf-8").split())
-    assert (f"sums {min(sums):.0f}-{max(sums):.0f} GiB/s per core from L1 and L2, the screening kernel "
+    assert (f"sums {min(sums):.0f}-{max(sums):.0f} GiB/s per core from L1 and L2, float64 or float32, where "
+            f"XXH3-128 hashes {min(xxh3):.0f}-{max(xxh3):.0f} GiB/s and the screening kernel reads "
             f"{min(screen):.1f}-{max(screen):.1f} GiB/s on the same bytes") in readme

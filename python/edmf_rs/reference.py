@@ -220,7 +220,7 @@ def falsify(predictions, measurements, thresholds: Thresholds) -> FalsificationR
 CHECKSUM_LANES = 8
 CHECKSUM_BLOCK_ROWS = 65_536
 _M64 = (1 << 64) - 1
-_TAG = int.from_bytes(b"fl64x8/1", "little")
+_TAG = int.from_bytes(b"fl64x8/2", "little")
 
 
 @dataclass(frozen=True)
@@ -253,14 +253,17 @@ def _fmix64(x: int) -> int:
     return x ^ (x >> 33)
 
 
-def _block_checksum(words: np.ndarray, cols: int, rows: int) -> str:
-    """Lane sums A, H, B, G of one block's canonical words, mixed into 128 bits."""
+def _block_checksum(block: np.ndarray, cols: int, rows: int) -> str:
+    """Lane sums A, H, B, G of one block's words, mixed into 128 bits with its unit count."""
+    raw = block.tobytes()  # little-endian values, row after row
+    units = len(raw) // 4
+    words = np.frombuffer(raw + bytes(4 * (units % 2)), dtype="<u8").astype(np.uint64)
     k = np.arange(words.size, dtype=np.uint64)
     lane, step, high = k % CHECKSUM_LANES, k // CHECKSUM_LANES, words >> np.uint64(32)
     sums = []
     for values in (words, high, step * words, step * high):  # uint64: wraps modulo 2**64
         sums += [int(values[lane == lane_].sum(dtype=np.uint64)) for lane_ in range(CHECKSUM_LANES)]
-    state = [_TAG, cols, rows, *sums]
+    state = [_TAG, cols, rows, units, *sums]
     forward, backward = 0x6564_6D66_5F72_7331, 0x9E37_79B9_7F4A_7C15
     for w in state:
         forward = _fmix64(forward ^ w)
@@ -272,18 +275,22 @@ def _block_checksum(words: np.ndarray, cols: int, rows: int) -> str:
 def row_checksums(rows) -> RowChecksums:
     """Block checksums of model-instance rows, as a checkpoint records them.
 
-    Each value is read as its canonical word (the 64 bits of its float64
-    value), row after row; word ``k`` of a block goes to lane ``k % 8`` at step
-    ``j = k // 8``, and per lane, modulo 2**64, ``A = sum w``, ``H = sum (w >> 32)``,
+    The values are read as a run hands them to Rust (float32 of either byte
+    order as float32, anything else as float64), and a block's bytes, row
+    after row, little-endian, as 64-bit words (a float64 value is one word,
+    two float32 values share one; an odd count is padded with zero bits).
+    Word ``k`` of a block goes to lane ``k % 8`` at step ``j = k // 8``, and
+    per lane, modulo 2**64, ``A = sum w``, ``H = sum (w >> 32)``,
     ``B = sum j w`` and ``G = sum j (w >> 32)``; the block's checksum mixes the
-    width, the row count and these sums. A guard against accidental change of
-    the input (any change of at most two words per lane is certain to show),
-    not against deliberate tampering.
+    width, the row count, the number of 32-bit units and these sums. A guard
+    against accidental change of the input (any change of at most two words
+    per lane is certain to show), not against deliberate tampering.
 
     Parameters
     ----------
     rows : array_like
-        2-D (instances x sensors) real values; any dtype, byte order or layout.
+        2-D (instances x sensors) real values; any dtype, byte order or layout
+        (the same values as float32 and as float64 give different checksums).
 
     Returns
     -------
@@ -306,9 +313,10 @@ def row_checksums(rows) -> RowChecksums:
     arr = np.asarray(rows)
     if arr.ndim != 2:
         raise ValueError(f"rows: expected a 2-D array, got {arr.ndim} dimensions")
-    words = np.ascontiguousarray(arr, dtype=np.float64).view(np.uint64)
+    single = arr.dtype.kind == "f" and arr.dtype.itemsize == 4
+    values = np.ascontiguousarray(arr, dtype="<f4" if single else "<f8")
     n, cols = arr.shape
-    sums = [_block_checksum(words[s:s + CHECKSUM_BLOCK_ROWS].ravel(), cols, min(CHECKSUM_BLOCK_ROWS, n - s))
+    sums = [_block_checksum(values[s:s + CHECKSUM_BLOCK_ROWS], cols, min(CHECKSUM_BLOCK_ROWS, n - s))
             for s in range(0, n, CHECKSUM_BLOCK_ROWS)]
     if n % CHECKSUM_BLOCK_ROWS:
         return RowChecksums(tuple(sums[:-1]), sums[-1], n)

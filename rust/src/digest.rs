@@ -1,25 +1,31 @@
 //! Block checksums of model-instance rows, so a resumed run can tell that the
 //! input it re-reads is, row for row, the one its checkpoint was made from.
 //!
-//! **What is summed.** Every value as its *canonical word*: the 64 bits of its
-//! float64 value (float32 widened exactly), in row-major instance order,
-//! whatever the source's dtype, byte order, memory layout or chunking. Rows
-//! are grouped in fixed blocks of [`BLOCK_ROWS`] instances counted from
-//! instance 0; block checksums depend on the instance index only.
+//! **What is summed.** The values' bits at their stored width, in row-major
+//! instance order, as one stream of 32-bit *units* per block (a float64 value
+//! is two units, low half first; a float32 value one), whatever the source's
+//! byte order, memory layout or chunking. Word `k` of a block is units `2k`
+//! (low half) and `2k + 1` (high half): on a little-endian machine, the
+//! block's bytes read as u64 words, so float64 words are the values' bits and
+//! a float32 word holds two values. Rows are grouped in fixed blocks of
+//! [`BLOCK_ROWS`] instances counted from instance 0; block checksums depend on
+//! the instance index only. (Version 1 widened float32 to float64 first; that
+//! conversion made float32 sums 2.6 times as slow, see [`ALGORITHM`].)
 //!
 //! **The checksum** ([`ALGORITHM`], a Fletcher-style sum over eight lanes).
-//! In a block of `R` rows and `C` columns, word `w_k` (`k = r C + c`) goes to
-//! lane `l = k mod 8` at step `j = k div 8`. Per lane, modulo 2^64:
+//! Word `w_k` goes to lane `l = k mod 8` at step `j = k div 8`. Per lane,
+//! modulo 2^64:
 //!
 //! ```text
 //! A_l = sum w_k        H_l = sum (w_k >> 32)        (plain sums)
 //! B_l = sum j w_k      G_l = sum j (w_k >> 32)      (position-weighted sums)
 //! ```
 //!
-//! and the block's 128-bit checksum mixes `(C, R, A, H, B, G)` (see
-//! [`finish`]). [`literal`] is this definition word by word (the oracle of
-//! the tests); the vector levels ([`crate::kernel::Isa`]) compute the same
-//! sums with additions only.
+//! and the block's 128-bit checksum mixes `(C, R, U, A, H, B, G)`, with `C`
+//! columns, `R` rows and `U` units (see [`finish`]), so the same values stored
+//! as float32 and as float64 differ. [`literal`] is this definition unit by
+//! unit (the oracle of the tests); the vector levels ([`crate::kernel::Isa`])
+//! compute the same sums with additions only.
 //!
 //! **Why it catches accidental change.** With 32-bit halves `lo`, `hi` of each
 //! word, `(A, H)` give the exact integer sums of the `lo` and of the `hi`
@@ -31,13 +37,15 @@
 //! fewer than 2^32 steps (rows of fewer than 2^19 columns). So **every change
 //! of at most two words per lane in a block is detected, with certainty**:
 //! any one or two flipped bits, any changed value, any swap of two values,
-//! any change within one row of up to 16 columns, any swap of two rows of up
-//! to 8 columns. Larger changes (regenerated rows, swapped columns, shifted
-//! or truncated data) go unseen only if, in every lane, both halves keep their
-//! exact sum *and* their first moment, which values that changed by accident
-//! do not do (a swap of two columns, for example, is seen unless the two
-//! columns hold, in every lane, halves of equal sum and equal moment). The
-//! row count is part of every block's checksum, so a truncated block differs.
+//! any change within one row of up to 16 float64 (32 float32) columns, any
+//! swap of two rows of up to 8 float64 (16 float32) columns. Larger changes
+//! (regenerated rows, swapped columns, shifted or truncated data) go unseen
+//! only if, in every lane, both halves keep their exact sum *and* their first
+//! moment, which values that changed by accident do not do (a swap of two
+//! columns, for example, is seen unless the two columns hold, in every lane,
+//! halves of equal sum and equal moment). The row and unit counts are part of
+//! every block's checksum, so a truncated block, or one whose dtype changed,
+//! differs.
 //!
 //! This guards against accidental change (an edited, regenerated, shifted or
 //! damaged input), not deliberate tampering: anyone can make a different input
@@ -53,52 +61,57 @@ use crate::matrix::Matrix;
 use rayon::prelude::*;
 use rayon::ThreadPool;
 
-/// Name and version of the checksum, recorded in checkpoints.
-pub const ALGORITHM: &str = "fletcher64x8/1";
+/// Name and version of the checksum, recorded in checkpoints. Version 2 sums
+/// float32 values at their own width (version 1: widened to float64).
+pub const ALGORITHM: &str = "fletcher64x8/2";
 /// Instances per block: the unit a checkpoint records and names when it differs.
 pub const BLOCK_ROWS: usize = 65_536;
 /// Rows summed in one piece (one parallel task; the falsifier's kernel block).
 pub const PIECE_ROWS: usize = 1024;
 /// Lanes of the checksum.
 pub const LANES: usize = 8;
+/// 32-bit units in one step of the lanes (eight words).
+const STEP_UNITS: u64 = 2 * LANES as u64;
 
-#[cfg(target_arch = "x86_64")]
-use crate::simd::checksum::Words;
-#[cfg(not(target_arch = "x86_64"))]
-/// Stand-in for the SIMD loads, which exist on x86-64 only.
-pub trait Words {}
-#[cfg(not(target_arch = "x86_64"))]
-impl Words for f32 {}
-#[cfg(not(target_arch = "x86_64"))]
-impl Words for f64 {}
-
-/// Values a checksum reads (as float64).
-pub trait Value: Copy + Send + Sync + Words {
-    fn as_f64(self) -> f64;
-    /// The canonical word: the bits of the float64 value.
-    #[inline(always)]
-    fn bits(self) -> u64 {
-        self.as_f64().to_bits()
-    }
+/// Values a checksum reads.
+pub trait Value: Copy + Send + Sync {
+    /// 32-bit units per value.
+    const UNITS: usize;
+    /// The value's bits (float32: in the low 32).
+    fn bits(self) -> u64;
+    /// Word `k` of `values`, whose first unit starts a word.
+    fn word(values: &[Self], k: usize) -> u64;
 }
 
 impl Value for f64 {
+    const UNITS: usize = 2;
     #[inline(always)]
-    fn as_f64(self) -> f64 {
-        self
+    fn bits(self) -> u64 {
+        self.to_bits()
+    }
+    #[inline(always)]
+    fn word(values: &[f64], k: usize) -> u64 {
+        values[k].to_bits()
     }
 }
 
 impl Value for f32 {
+    const UNITS: usize = 1;
     #[inline(always)]
-    fn as_f64(self) -> f64 {
-        f64::from(self)
+    fn bits(self) -> u64 {
+        u64::from(self.to_bits())
+    }
+    #[inline(always)]
+    fn word(values: &[f32], k: usize) -> u64 {
+        values[2 * k].bits() | (values[2 * k + 1].bits() << 32)
     }
 }
 
-/// The lane sums of (part of) one block, modulo 2^64 (see the module docs).
+/// The lane sums of (part of) one block, modulo 2^64 (see the module docs),
+/// and the number of units summed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Sums {
+    pub units: u64,
     pub a: [u64; LANES],
     pub h: [u64; LANES],
     pub b: [u64; LANES],
@@ -106,8 +119,9 @@ pub struct Sums {
 }
 
 impl Sums {
-    /// Adds `other`'s sums (of other words of the same block).
+    /// Adds `other`'s sums (of other units of the same block).
     pub fn add(&mut self, other: &Sums) {
+        self.units = self.units.wrapping_add(other.units);
         for l in 0..LANES {
             self.a[l] = self.a[l].wrapping_add(other.a[l]);
             self.h[l] = self.h[l].wrapping_add(other.h[l]);
@@ -117,62 +131,86 @@ impl Sums {
     }
 }
 
-/// The definition, word by word: adds to `s` the words of `values`, the
-/// first being word `k0` of its block.
-pub fn literal<T: Value>(values: &[T], k0: u64, s: &mut Sums) {
-    for (i, v) in values.iter().enumerate() {
-        let k = k0 + i as u64;
-        let (l, j, w) = ((k % LANES as u64) as usize, k / LANES as u64, v.bits());
-        s.a[l] = s.a[l].wrapping_add(w);
-        s.h[l] = s.h[l].wrapping_add(w >> 32);
-        s.b[l] = s.b[l].wrapping_add(j.wrapping_mul(w));
-        s.g[l] = s.g[l].wrapping_add(j.wrapping_mul(w >> 32));
+/// The definition, unit by unit: adds to `s` the values of `values`, the
+/// first starting at unit `u0` of its block.
+pub fn literal<T: Value>(values: &[T], u0: u64, s: &mut Sums) {
+    let mut i = u0;
+    for v in values {
+        let bits = v.bits();
+        for half_of_value in 0..T::UNITS {
+            let unit = (bits >> (32 * half_of_value)) & 0xFFFF_FFFF;
+            let (k, high) = (i / 2, i % 2 == 1);
+            let (l, j) = ((k % LANES as u64) as usize, k / LANES as u64);
+            let w = if high { unit << 32 } else { unit };
+            s.a[l] = s.a[l].wrapping_add(w);
+            s.b[l] = s.b[l].wrapping_add(j.wrapping_mul(w));
+            if high {
+                s.h[l] = s.h[l].wrapping_add(unit);
+                s.g[l] = s.g[l].wrapping_add(j.wrapping_mul(unit));
+            }
+            i += 1;
+        }
     }
+    s.units = s.units.wrapping_add(values.len() as u64 * T::UNITS as u64);
 }
 
 /// [`literal`] at instruction-set level `isa` (the same sums at every level;
 /// a level the CPU does not run falls back to the definition).
-pub fn sum_with<T: Value>(isa: Isa, values: &[T], k0: u64, s: &mut Sums) {
-    let head = (((LANES as u64 - k0 % LANES as u64) % LANES as u64) as usize).min(values.len());
-    let m = (values.len() - head) / LANES;
-    let groups = &values[head..head + m * LANES];
-    if m == 0 {
-        return literal(values, k0, s);
+pub fn sum_with<T: Value>(isa: Isa, values: &[T], u0: u64, s: &mut Sums) {
+    let per_unit = T::UNITS as u64;
+    // Values before the first unit that starts a step; none fit when a float64
+    // starts mid-word (a block mixing dtypes), and the definition does it all.
+    let to_step = (STEP_UNITS - u0 % STEP_UNITS) % STEP_UNITS;
+    if to_step % per_unit != 0 {
+        return literal(values, u0, s);
     }
+    let head = ((to_step / per_unit) as usize).min(values.len());
+    let per_group = LANES * 2 / T::UNITS;
+    let m = (values.len() - head) / per_group;
+    if m == 0 {
+        return literal(values, u0, s);
+    }
+    let groups = &values[head..head + m * per_group];
     #[cfg(target_arch = "x86_64")]
-    let [s1, h1, s2, h2] = match isa {
-        // SAFETY: the CPU runs the level (checked by `supported`).
-        Isa::Avx512 if isa.supported() => unsafe { T::groups_avx512(groups) },
-        Isa::Avx2 if isa.supported() => unsafe { T::groups_avx2(groups) },
-        _ => groups_portable(groups),
+    let [s1, h1, s2, h2] = {
+        use crate::simd::checksum;
+        let bytes = groups.as_ptr() as *const u8;
+        match isa {
+            // SAFETY: the CPU runs the level (checked by `supported`); `groups`
+            // holds exactly `m` groups of 64 bytes, read as little-endian words
+            // (the definition's words on x86-64).
+            Isa::Avx512 if isa.supported() => unsafe { checksum::groups_avx512(bytes, m) },
+            Isa::Avx2 if isa.supported() => unsafe { checksum::groups_avx2(bytes, m) },
+            _ => groups_portable(groups, m),
+        }
     };
     #[cfg(not(target_arch = "x86_64"))]
     let [s1, h1, s2, h2] = {
         let _ = isa;
-        groups_portable(groups)
+        groups_portable(groups, m)
     };
-    literal(&values[..head], k0, s);
+    literal(&values[..head], u0, s);
     // Over steps j0 .. j0 + m: s1 = sum x_t, s2 = sum (m - t) x_t, so
     // sum (j0 + t) x_t = (j0 + m) s1 - s2 (all modulo 2^64).
-    let end = (k0 + head as u64) / LANES as u64 + m as u64;
+    let end = (u0 + head as u64 * per_unit) / STEP_UNITS + m as u64;
     for l in 0..LANES {
         s.a[l] = s.a[l].wrapping_add(s1[l]);
         s.h[l] = s.h[l].wrapping_add(h1[l]);
         s.b[l] = s.b[l].wrapping_add(end.wrapping_mul(s1[l]).wrapping_sub(s2[l]));
         s.g[l] = s.g[l].wrapping_add(end.wrapping_mul(h1[l]).wrapping_sub(h2[l]));
     }
-    literal(&values[head + m * LANES..], k0 + (head + m * LANES) as u64, s);
+    s.units = s.units.wrapping_add(groups.len() as u64 * per_unit);
+    let rest = head + m * per_group;
+    literal(&values[rest..], u0 + rest as u64 * per_unit, s);
 }
 
 /// The vector loops' recurrence (`simd::checksum`) in plain Rust over
-/// fixed-width lanes, which the compiler vectorises for any target: the
-/// portable level, and CPUs other than x86-64, sum at memory speed too
-/// instead of at the definition's one multiplication per word.
-fn groups_portable<T: Value>(values: &[T]) -> [[u64; LANES]; 4] {
+/// fixed-width lanes: the portable level, and CPUs other than x86-64.
+fn groups_portable<T: Value>(values: &[T], m: usize) -> [[u64; LANES]; 4] {
     let (mut s1, mut h1, mut s2, mut h2) = ([0u64; LANES], [0u64; LANES], [0u64; LANES], [0u64; LANES]);
-    for group in values.chunks_exact(LANES) {
+    for t in 0..m {
         for l in 0..LANES {
-            let w = group[l].bits();
+            let w = T::word(values, LANES * t + l);
             s1[l] = s1[l].wrapping_add(w);
             h1[l] = h1[l].wrapping_add(w >> 32);
             s2[l] = s2[l].wrapping_add(s1[l]);
@@ -196,7 +234,7 @@ const BATCH_VALUES: usize = 1 << 14;
 /// The sums of the rows of `m`, the first being instance `first_row`, at
 /// instruction-set level `isa`; `buf` is scratch for rows that are not one
 /// run of memory (Fortran order, strided), converted batch by batch.
-pub fn part_with<T: Value>(isa: Isa, m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<f64>) -> Part {
+pub fn part_with<T: Value>(isa: Isa, m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<T>) -> Part {
     let in_block = (first_row % BLOCK_ROWS as u64) as usize;
     let split = m.rows().min(BLOCK_ROWS - in_block);
     let mut p = Part::default();
@@ -206,7 +244,7 @@ pub fn part_with<T: Value>(isa: Isa, m: Matrix<'_, T>, first_row: u64, buf: &mut
 }
 
 /// [`part_with`] at the fastest level of this CPU.
-pub fn part<T: Value>(m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<f64>) -> Part {
+pub fn part<T: Value>(m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<T>) -> Part {
     part_with(Isa::detect(), m, first_row, buf)
 }
 
@@ -224,7 +262,7 @@ const INTERLEAVE_BYTES: usize = 128 << 10;
 pub fn part_after<T: Value>(
     m: Matrix<'_, T>,
     first_row: u64,
-    buf: &mut Vec<f64>,
+    buf: &mut Vec<T>,
     mut kernel: impl FnMut(usize, usize),
 ) -> Part {
     let isa = Isa::detect();
@@ -249,10 +287,10 @@ pub fn part_after<T: Value>(
 }
 
 /// Adds the sums of rows `m` (row `row` of their block onwards) to `s`.
-fn rows_sums<T: Value>(isa: Isa, m: Matrix<'_, T>, row: usize, buf: &mut Vec<f64>, s: &mut Sums) {
+fn rows_sums<T: Value>(isa: Isa, m: Matrix<'_, T>, row: usize, buf: &mut Vec<T>, s: &mut Sums) {
     let (rows, cols) = (m.rows(), m.cols());
     if let Some(values) = m.contiguous() {
-        return sum_with(isa, values, (row * cols) as u64, s);
+        return sum_with(isa, values, first_unit::<T>(row, cols), s);
     }
     let batch = (BATCH_VALUES / cols.max(1)).max(1);
     let mut first = 0;
@@ -261,13 +299,21 @@ fn rows_sums<T: Value>(isa: Isa, m: Matrix<'_, T>, row: usize, buf: &mut Vec<f64
         buf.clear();
         for i in first..last {
             match m.row_slice(i) {
-                Some(r) => buf.extend(r.iter().map(|&v| v.as_f64())),
-                None => buf.extend((0..cols).map(|j| m.get(i, j).as_f64())),
+                Some(r) => buf.extend_from_slice(r),
+                None => buf.extend((0..cols).map(|j| m.get(i, j))),
             }
         }
-        sum_with(isa, buf, ((row + first) * cols) as u64, s);
+        sum_with(isa, buf, first_unit::<T>(row + first, cols), s);
         first = last;
     }
+}
+
+/// The unit at which row `row` of its block starts: rows of one dtype are one
+/// stream of units. (A block whose chunks change dtype gets, row by row, the
+/// positions of its own dtype: still a function of each row's index, dtype
+/// and values only, so whatever the chunking.)
+fn first_unit<T: Value>(row: usize, cols: usize) -> u64 {
+    (row as u64) * (cols as u64) * T::UNITS as u64
 }
 
 /// MurmurHash3's 64-bit finaliser: a bijection of u64 that spreads every bit.
@@ -281,11 +327,11 @@ fn fmix64(mut x: u64) -> u64 {
 
 /// The 128-bit checksum of a block of `rows` rows of `cols` columns whose
 /// sums are `s`: two chains `h = fmix64(h ^ word)` over the words
-/// `(tag, cols, rows, A, H, B, G)`, forward and backward, each a bijection
+/// `(tag, cols, rows, units, A, H, B, G)`, forward and backward, each a bijection
 /// of `h` at every step, so any one changed word changes both halves.
 pub fn finish(cols: usize, rows: usize, s: &Sums) -> u128 {
-    const TAG: u64 = u64::from_le_bytes(*b"fl64x8/1");
-    let mut words = vec![TAG, cols as u64, rows as u64];
+    const TAG: u64 = u64::from_le_bytes(*b"fl64x8/2");
+    let mut words = vec![TAG, cols as u64, rows as u64, s.units];
     for lanes in [&s.a, &s.h, &s.b, &s.g] {
         words.extend_from_slice(lanes);
     }

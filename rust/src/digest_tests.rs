@@ -62,13 +62,21 @@ fn every_level_gives_the_sums_of_the_definition() {
 fn sums_of_parts_add_up_to_the_sums_of_the_whole() {
     let mut state = 99u64;
     let values = random(777, &mut state);
-    let mut whole = Sums::default();
-    literal(&values, 13, &mut whole);
-    let mut parts = Sums::default();
-    for (a, b) in [(0, 5), (5, 400), (400, 777)] {
-        sum_with(Isa::detect(), &values[a..b], 13 + a as u64, &mut parts);
+    let narrow: Vec<f32> = values.iter().map(|&v| v as f32).collect();
+    // From unit 26 (a float64 starts a word) and 13 (mid-word: only the definition fits).
+    for u0 in [26, 13] {
+        let (mut whole, mut whole32) = (Sums::default(), Sums::default());
+        literal(&values, u0, &mut whole);
+        literal(&narrow, u0, &mut whole32);
+        let (mut parts, mut parts32) = (Sums::default(), Sums::default());
+        for (a, b) in [(0, 5), (5, 400), (400, 777)] {
+            sum_with(Isa::detect(), &values[a..b], u0 + 2 * a as u64, &mut parts);
+            sum_with(Isa::detect(), &narrow[a..b], u0 + a as u64, &mut parts32);
+        }
+        assert_eq!(parts, whole, "float64 from unit {u0}");
+        assert_eq!(parts32, whole32, "float32 from unit {u0}");
+        assert_eq!((whole.units, whole32.units), (2 * 777, 777));
     }
-    assert_eq!(parts, whole);
 }
 
 #[test]
@@ -84,33 +92,45 @@ fn the_digest_does_not_depend_on_chunking() {
     }
 }
 
-#[test]
-fn layout_and_float32_give_the_digest_of_the_values() {
-    let (rows, cols) = (3 * PIECE_ROWS + 5, 5);
-    let c: Vec<f32> = (0..rows * cols).map(|k| k as f32 * 0.25 - 7.0).collect();
-    let mut f = vec![0.0f64; rows * cols]; // same values, Fortran order, float64
-    let mut padded = vec![0.0f64; rows * (cols + 2)]; // row stride cols + 2
+/// The digest of rows `c` (row-major) fed in two chunks in C order, Fortran
+/// order and with a row stride of `cols + 2`: all three must agree.
+fn digest_in_layouts<T: Value + Default>(c: &[T], rows: usize, cols: usize) -> Option<u128> {
+    let mut f = vec![T::default(); rows * cols];
+    let mut padded = vec![T::default(); rows * (cols + 2)];
     for i in 0..rows {
         for j in 0..cols {
-            f[j * rows + i] = f64::from(c[i * cols + j]);
-            padded[i * (cols + 2) + j] = f64::from(c[i * cols + j]);
+            f[j * rows + i] = c[i * cols + j];
+            padded[i * (cols + 2) + j] = c[i * cols + j];
         }
     }
     let p = pool();
-    let feed = |m: Matrix<'_, f64>| {
+    let feed = |m: Matrix<'_, T>| {
         let mut d = RowDigest::new();
         d.update(m.slice_rows(0, 1000), &p).unwrap();
         d.update(m.slice_rows(1000, rows), &p).unwrap();
         d.partial()
     };
-    let mut a = RowDigest::new();
-    a.update(Matrix::row_major(&c, rows, cols).unwrap(), &p).unwrap();
-    assert!(a.partial().is_some());
-    assert_eq!(feed(Matrix::col_major(&f, rows, cols).unwrap()), a.partial());
-    assert_eq!(
-        feed(Matrix::new(&padded, rows, cols, cols + 2, 1).unwrap()),
-        a.partial()
-    );
+    let want = feed(Matrix::row_major(c, rows, cols).unwrap());
+    assert!(want.is_some());
+    assert_eq!(feed(Matrix::col_major(&f, rows, cols).unwrap()), want);
+    assert_eq!(feed(Matrix::new(&padded, rows, cols, cols + 2, 1).unwrap()), want);
+    want
+}
+
+#[test]
+fn layout_does_not_change_the_digest_and_the_dtype_does() {
+    // Odd widths: float32 rows start mid-word.
+    for (rows, cols) in [(3 * PIECE_ROWS + 5, 5), (2 * PIECE_ROWS + 1, 7)] {
+        let c: Vec<f32> = (0..rows * cols).map(|k| k as f32 * 0.25 - 7.0).collect();
+        let wide: Vec<f64> = c.iter().map(|&v| f64::from(v)).collect();
+        let narrow = digest_in_layouts(&c, rows, cols);
+        // The definition, unit by unit: a float32 row starts at unit row * cols.
+        let mut s = Sums::default();
+        literal(&c, 0, &mut s);
+        assert_eq!(narrow, Some(finish(cols, rows, &s)));
+        // The same values stored as float64 are another input.
+        assert_ne!(digest_in_layouts(&wide, rows, cols), narrow);
+    }
 }
 
 #[test]
@@ -127,9 +147,15 @@ fn one_changed_value_changes_its_block_only() {
 }
 
 /// The checksum of one block (`data` row-major, `cols` wide).
-fn block(data: &[f64], cols: usize) -> u128 {
-    let (blocks, partial) = digest_in_chunks(data, cols, 4096);
-    partial.unwrap_or_else(|| blocks[0])
+fn block<T: Value>(data: &[T], cols: usize) -> u128 {
+    let rows = data.len() / cols;
+    let mut d = RowDigest::new();
+    let p = pool();
+    for s in (0..rows).step_by(4096) {
+        let m = Matrix::row_major(data, rows, cols).unwrap();
+        d.update(m.slice_rows(s, (s + 4096).min(rows)), &p).unwrap();
+    }
+    d.partial().unwrap_or_else(|| d.blocks()[0])
 }
 
 #[test]
@@ -216,6 +242,25 @@ fn any_change_of_two_words_in_a_lane_is_detected() {
             block(&data, cols),
             "two signs flipped {shift} steps apart"
         );
+    }
+    // float32: sixteen values a step (32768 in a block); odd values are high
+    // halves, whose sign is bit 63.
+    let narrow: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+    for shift in [1usize, 2, 4096, 16384] {
+        for half in [6, 7] {
+            let (k1, k2) = (16 * 5 + half, 16 * (5 + shift) + half);
+            let mut one = narrow.clone();
+            one[k1] = 1.5;
+            one[k2] = -1.5;
+            let mut other = narrow.clone();
+            other[k1] = -1.5;
+            other[k2] = 1.5;
+            assert_ne!(block(&one, cols), block(&other, cols), "float32 swap {shift} steps apart");
+            let mut two_signs = narrow.clone();
+            two_signs[k1] = -two_signs[k1];
+            two_signs[k2] = -two_signs[k2];
+            assert_ne!(block(&two_signs, cols), block(&narrow, cols), "float32 signs {shift} steps apart");
+        }
     }
 }
 

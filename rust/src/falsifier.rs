@@ -363,7 +363,7 @@ fn diagnose_parallel<T: Prediction + Value>(
 ) -> Tally {
     let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let task = |(mut t, mut buf): (Tally, Vec<f64>), (k, (((o, count), w), slot)): BlockTask<'_>| {
+    let task = |(mut t, mut buf): (Tally, Vec<T>), (k, (((o, count), w), slot)): BlockTask<'_>| {
         let first = k * BLOCK_ROWS;
         let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
         w.fill(0);
@@ -412,7 +412,7 @@ fn screen_parallel<T: Prediction + Value>(
 ) {
     let (isa, rows) = (Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let task = |buf: &mut Vec<f64>, (k, (((_, count), w), slot)): BlockTask<'_>| {
+    let task = |buf: &mut Vec<T>, (k, (((_, count), w), slot)): BlockTask<'_>| {
         let first = k * BLOCK_ROWS;
         let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
         w.fill(0);

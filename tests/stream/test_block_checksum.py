@@ -1,6 +1,6 @@
-"""The checkpoint's block checksum (``fletcher64x8/1``, rust/src/digest.rs)
+"""The checkpoint's block checksum (``fletcher64x8/2``, rust/src/digest.rs)
 against its NumPy reference (``edmf_rs.reference.row_checksums``), whatever
-the dtype, byte order, layout, chunking and thread count; the accidental
+the byte order, layout, chunking and thread count, for float64 and float32; the accidental
 changes it must catch; and the refusal of checkpoints of the earlier format."""
 
 from __future__ import annotations
@@ -59,7 +59,9 @@ def test_rust_gives_the_checksums_of_the_reference(n, cols, dtype, layout, speci
     values = _values(seed, n, cols, dtype, special)
     cuts = sorted(data.draw(st.lists(st.integers(0, n), max_size=4)))
     want = reference.row_checksums(values)
-    assert want == reference.row_checksums(values.astype(np.float64))  # the values, not the dtype
+    assert want == reference.row_checksums(values.astype(values.dtype.newbyteorder("S")))  # not the byte order
+    if values.dtype.itemsize == 4 and n:  # the same values as float64 are another input
+        assert reference.row_checksums(values.astype(np.float64)) != want
     before = _core.get_num_threads()
     try:
         _core.set_num_threads(threads)
@@ -132,8 +134,9 @@ def test_a_checkpoint_of_the_earlier_format_is_refused_with_a_clear_message(tmp_
         edmf_rs.falsify(path, y, t, checkpoint=folder, progress=False)
     # A current-format state that names another checksum is refused too.
     state["format"] = state_file.FORMAT
-    state["rows"]["checksum"] = "xxh3-128/1"
-    state_file.write(folder / "state.json", state)
-    with pytest.raises(ValueError, match=r"checksums 'xxh3-128/1' of 65536-instance blocks, this version uses "
-                                         r"'fletcher64x8/1'"):
-        edmf_rs.falsify(path, y, t, checkpoint=folder, progress=False)
+    for other in ("xxh3-128/1", "fletcher64x8/1"):  # version 1 widened float32 to float64
+        state["rows"]["checksum"] = other
+        state_file.write(folder / "state.json", state)
+        with pytest.raises(ValueError, match=rf"checksums '{other}' of 65536-instance blocks, this version uses "
+                                             r"'fletcher64x8/2'"):
+            edmf_rs.falsify(path, y, t, checkpoint=folder, progress=False)

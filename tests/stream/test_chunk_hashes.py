@@ -36,14 +36,16 @@ def test_the_digest_depends_on_the_values_only(n, cols, step, seed):
     values = np.random.default_rng(seed).normal(size=(n, cols)).astype(np.float32)
     want = _digests(values, max(n, 1))
     assert _digests(values, step) == want  # any chunking
-    assert _digests(values.astype(np.float64), step) == want  # float32 values as float64
-    assert _digests(np.asfortranarray(values.astype(np.float64)), step) == want  # any layout
-    wide = np.zeros((n, 2 * cols), np.float64)
+    assert _digests(np.asfortranarray(values), step) == want  # any layout
+    wide = np.zeros((n, 2 * cols), np.float32)
     wide[:, ::2] = values
     assert _digests(wide[:, ::2], step) == want  # strided
+    as_f64 = values.astype(np.float64)
+    assert _digests(np.asfortranarray(as_f64), step) == _digests(as_f64, max(n, 1))
     if n:
-        changed = values.astype(np.float64)
-        changed[seed % n, seed % cols] = np.nextafter(changed[seed % n, seed % cols], np.inf)
+        assert _digests(as_f64, step) != want  # float32 values stored as float64: another input
+        changed = values.copy()
+        changed[seed % n, seed % cols] = np.nextafter(changed[seed % n, seed % cols], np.float32(np.inf))
         assert _digests(changed, step) != want  # one ulp anywhere
 
 

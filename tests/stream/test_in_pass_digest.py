@@ -56,7 +56,7 @@ def test_in_pass_and_separate_hashing_write_the_same_digests(n, n_m, chunk_rows,
         a = state_file.read(tmp / "in_pass" / state_file.STATE)["rows"]
         b = state_file.read(tmp / "separate" / state_file.STATE)["rows"]
         assert a == b
-        assert (a["blocks"], a["partial"]) == _separate(values.astype(np.float64))[:2]  # values, not dtype
+        assert (a["blocks"], a["partial"]) == _separate(values)[:2]
         np.testing.assert_array_equal(in_pass.candidate_indices, separate.candidate_indices)
         # Each folder is a finished run the other hashing checks and accepts.
         Durable.in_pass = False

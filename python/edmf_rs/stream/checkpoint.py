@@ -109,7 +109,7 @@ def digestible(rows) -> np.ndarray:
     if (arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative or not arr.flags.aligned
             or any(s < 0 for s in arr.strides)):
         # a copy, always: ascontiguousarray returns an empty array with negative strides unchanged
-        arr = np.array(arr, dtype=np.float64 if arr.dtype != np.float32 else np.float32, order="C")
+        arr = np.array(arr, dtype=np.float32 if chunks.single(arr.dtype) else np.float64, order="C")
     return arr
 
 

@@ -38,6 +38,13 @@ def checked_array(chunk, n_sensors: int, name: str = "predictions") -> np.ndarra
     return arr
 
 
+def single(dtype: np.dtype) -> bool:
+    """Whether values of ``dtype`` are handed to Rust as float32 (float32 of
+    either byte order; everything else goes as float64). The checkpoint's
+    block checksum sums the values at that width."""
+    return dtype.kind == "f" and dtype.itemsize == 4
+
+
 def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
     """A 2-D float32/float64 array with positive strides, aligned, n_sensors wide.
 
@@ -45,7 +52,7 @@ def as_chunk(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
     """
     arr = checked_array(chunk, n_sensors, name)
     if arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative:
-        arr = arr.astype(np.float64 if arr.dtype != np.float32 else np.float32)
+        arr = arr.astype(np.float32 if single(arr.dtype) else np.float64)
     if any(s < 0 for s in arr.strides) or not arr.flags.aligned:
         arr = arr.copy(order="C")  # (ascontiguousarray keeps a contiguous misaligned array as is)
     return arr

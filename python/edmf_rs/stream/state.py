@@ -20,7 +20,9 @@ STATE = "state.json"
 #: Version 4: a part's candidates are a bitmap where that is smaller than
 #: their indices (``parts.FORMS``). Version 3 checked rows with the same
 #: block checksum ``fletcher64x8/1`` (``rust/src/digest.rs``) but stored
-#: indices only; version 2 recorded xxh3 digests.
+#: indices only; version 2 recorded xxh3 digests. A state names its block
+#: checksum (``rows.checksum``): one of ``fletcher64x8/1`` (float32 widened
+#: to float64) is refused by name.
 FORMAT = "edmf_rs.checkpoint/4"
 #: Formats of earlier versions, refused with a message saying so.
 EARLIER = {"edmf_rs.checkpoint/2": "xxh3 digests of its rows",
