@@ -96,7 +96,8 @@ fn isa_levels(c: &mut Criterion) {
 /// Short rows (5, 10 and 16 sensors; f64 and f32), the kernels alone on one
 /// thread at every level, worst case (every row a candidate) and typical (a
 /// few per cent candidates): 8 MB of predictions, so the cost per row shows
-/// rather than the memory's. `cargo bench -- short_rows`.
+/// rather than the memory's. "diagnose" keeps a count per row
+/// (`keep_violations`), "diagnose_bits" does not. `cargo bench -- short_rows`.
 fn short_rows(c: &mut Criterion) {
     for n_m in [5usize, 10, 16] {
         let n = (1 << 20) / n_m;
@@ -122,6 +123,23 @@ fn short_rows(c: &mut Criterion) {
                             } else {
                                 diagnose_with(isa, black_box(m), &b, &mut out, &mut t);
                             }
+                            t.invalid
+                        })
+                    });
+                    // As `falsify` runs without `keep_violations`: candidate
+                    // bits and the tally, no count per row.
+                    let id = BenchmarkId::new(format!("{case}/diagnose_bits/{dtype}"), format!("{isa:?}"));
+                    let mut words = vec![0u64; n.div_ceil(64)];
+                    group.bench_function(id, |bench| {
+                        bench.iter(|| {
+                            let mut t = Tally::zeros(n_m);
+                            let mut sink = BitSink::new(&mut words, 0);
+                            if is32 {
+                                diagnose_bits_with(isa, black_box(m32), &b, None, &mut sink, &mut t);
+                            } else {
+                                diagnose_bits_with(isa, black_box(m), &b, None, &mut sink, &mut t);
+                            }
+                            sink.finish();
                             t.invalid
                         })
                     });

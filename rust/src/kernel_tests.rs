@@ -358,6 +358,39 @@ fn empty_intervals_and_nan_rows_match_portable() {
     }
 }
 
+/// The periodic kernel looks for NaN only where a period's values sum to NaN:
+/// +inf and -inf in one period (a NaN sum, no NaN value) must count no
+/// invalid row, and a NaN next to them must count one; at every level.
+#[test]
+fn infinities_that_cancel_are_not_nan() {
+    for k in [3usize, 5, 7, 10, 12] {
+        let y = vec![0.0; k];
+        let b = SensorBounds::new(&y, &vec![-1.0; k], &vec![1.0; k]).unwrap();
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        let rows = 200;
+        for with_nan in [false, true] {
+            let mut data: Vec<f64> = (0..rows * k).map(|i| ((i * 7) % 13) as f64 * 0.25 - 1.5).collect();
+            for r in (0..rows).step_by(9) {
+                data[r * k] = f64::INFINITY;
+                data[r * k + k - 1] = f64::NEG_INFINITY;
+                if with_nan && r % 2 == 0 {
+                    data[r * k + k / 2] = f64::NAN;
+                }
+            }
+            let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+            let m = Matrix::row_major(&data, rows, k).unwrap();
+            let m32 = Matrix::row_major(&data32, rows, k).unwrap();
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+            assert_eq!(tw.invalid, if with_nan { rows.div_ceil(18) as u64 } else { 0 });
+            for isa in Isa::available() {
+                check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 infinities, {k} sensors"));
+                check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 infinities, {k} sensors"));
+            }
+        }
+    }
+}
+
 /// Long rows keep their per-sensor counts in narrow lanes between flushes
 /// (every 65,536 rows), and take the verdict first after candidates: a call
 /// over more rows than that, starting with a run of candidates, with counts

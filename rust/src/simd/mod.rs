@@ -65,6 +65,8 @@ pub trait Lanes: Copy {
     unsafe fn inside512(lanes: u32, p: Self::V512, low: Self::V512, high: Self::V512) -> u32;
     /// Bits of the lanes in `lanes` where `p` is NaN. # Safety: AVX-512F is available.
     unsafe fn nan512(lanes: u32, p: Self::V512) -> u32;
+    /// `a + b`, lane by lane (NaN if either is NaN). # Safety: AVX-512F is available.
+    unsafe fn add512(a: Self::V512, b: Self::V512) -> Self::V512;
     /// Bits of all lanes where `p >= low` and where `p <= high`, unmasked:
     /// with `low <= high`, a lane is in neither iff `p` is NaN (one
     /// comparison fewer than `inside512` and `nan512`). # Safety: AVX-512F is available.
@@ -113,6 +115,12 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512d) -> u32 {
         _mm512_mask_cmp_pd_mask::<_CMP_UNORD_Q>(lanes as __mmask8, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn add512(a: __m512d, b: __m512d) -> __m512d {
+        _mm512_add_pd(a, b)
     }
 
     #[inline]
@@ -175,6 +183,12 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn nan512(lanes: u32, p: __m512) -> u32 {
         _mm512_mask_cmp_ps_mask::<_CMP_UNORD_Q>(lanes as __mmask16, p, p) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn add512(a: __m512, b: __m512) -> __m512 {
+        _mm512_add_ps(a, b)
     }
 
     #[inline]
