@@ -1,5 +1,5 @@
 """The short-row table of docs/performance.md is the median and range of the
-runs recorded in benches/results-short-rows.txt (sections "session 8 final
+runs recorded in benches/results-short-rows.txt (sections "session 9 final
 code"), and its side-by-side figures the span of the section "session 8: side
 by side", recomputed here from that file: the page prints no number the
 benchmark did not."""
@@ -15,7 +15,7 @@ ROW = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnos
 
 def test_short_row_table_matches_the_recorded_runs():
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    runs = [s for s in text.split("\n=== ") if s.startswith("session 8 final code")]
+    runs = [s for s in text.split("\n=== ") if s.startswith("session 9 final code")]
     assert len(runs) == 6
     ratios = defaultdict(list)
     for run in runs:
@@ -74,3 +74,40 @@ def test_small_call_figures_match_the_recorded_runs():
     assert f"1,000 rows {span('old', 1000)} and {span('main', 1000)}" in page
     assert f"6,000 rows {span('old', 6000)} and {span('main', 6000)}" in page
     assert f"{span('old', 7000)} and {span('main', 7000)}" in page
+
+
+def test_session_9_kernel_figures_match_the_recorded_runs():
+    """The kernel-alone spans quoted for session 9, and the largest move of a
+    median between the session-8 and session-9 tables, from the recorded runs."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    section = text.split("\n=== session 9: cargo bench")[1].split("\n=== ")[0]
+    rates = defaultdict(list)
+    for line in section.splitlines():
+        cells, arrow, version = line.partition(" <- ")
+        if not arrow:
+            continue
+        for cell in filter(None, (c.strip() for c in cells.split("|"))):
+            name, rate = cell.rsplit(" ", 1)
+            rates[(version.strip(), name)].append(int(rate))
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+
+    def moved(case):
+        old, new = (rates[(v, f"short_rows_{case}/Avx512")] for v in ("old", "main"))
+        assert len(old) == len(new) == 2
+        return f"from {min(old)}-{max(old)} to {min(new)}-{max(new)}"
+
+    assert f"every row a candidate went {moved('10/worst/diagnose_bits/f64')} M rows/s" in page
+    assert f"most falsified, {moved('5/typical/diagnose_bits/f32')};" in page
+    assert (f"most falsified, went {moved('10/typical/diagnose_bits/f64')} (f64) and "
+            f"{moved('10/typical/diagnose_bits/f32')} (f32)") in page
+    medians = {}
+    for session in ("8", "9"):
+        ratios = defaultdict(list)
+        for run in (r for r in text.split("\n=== ") if r.startswith(f"session {session} final code")):
+            for m in map(ROW.match, run.splitlines()):
+                if m:
+                    ratios[m.groups()[:4]].append(float(m[5]))
+        medians[session] = {k: statistics.median(v) for k, v in ratios.items()}
+    largest = max(abs(medians["8"][k] - medians["9"][k]) for k in medians["9"])
+    assert round(largest, 1) == 0.2
+    assert "differ from these by up to 0.2 either way" in page
