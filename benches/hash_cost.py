@@ -21,11 +21,11 @@ shared machine). Target: on/off below 1.05.
 What bounds it (``cargo bench --bench checksum`` times both on the same
 bytes, one thread; ``results-checksum.txt``): the checksum must read every
 byte (a 64-byte load and five vector operations per 64 bytes, float64 or
-float32 alike: the values' bits are summed at their stored width). On an AMD
-EPYC Zen 4 it sums 55-76 GiB/s per core from L1 or L2 (XXH3-128: 42-50 GiB/s)
-and the screening kernel reads 22-30 GiB/s, whether the data are in cache or
-in memory (it is not waiting on memory, so there is no idle time to hide the
-sums in): summing what it has just read adds about a quarter to its CPU time.
+float32 alike: the values' bits are summed at their stored width), faster
+than the screening kernel reads the same bytes and faster than XXH3-128
+(``results-checksum.txt``), whether the data are in cache or in memory: the kernel is not
+waiting on memory, so there is no idle time to hide the sums in, and summing
+what it has just read adds to its CPU time (the first table).
 
 The second table is the streaming rate the checksum is meant to be cheap
 beside: ``edmf_rs.falsify`` over a ``.npy`` file (warm in the page cache, as

@@ -93,6 +93,27 @@ fn isa_levels(c: &mut Criterion) {
     group.finish();
 }
 
+/// One pass of the bit-writing diagnostics over `m` (f64) or `m32` (f32),
+/// no count per row, as `falsify` runs without `keep_violations`.
+fn diagnose_bits_once(
+    isa: Isa,
+    m: Matrix<'_, f64>,
+    m32: Matrix<'_, f32>,
+    is32: bool,
+    b: &SensorBounds,
+    words: &mut [u64],
+) -> u64 {
+    let mut t = Tally::zeros(b.len());
+    let mut sink = BitSink::new(words, 0);
+    if is32 {
+        diagnose_bits_with(isa, black_box(m32), b, None, &mut sink, &mut t);
+    } else {
+        diagnose_bits_with(isa, black_box(m), b, None, &mut sink, &mut t);
+    }
+    sink.finish();
+    t.invalid
+}
+
 /// Short rows (5, 10 and 16 sensors; f64 and f32), the kernels alone on one
 /// thread at every level, worst case (every row a candidate) and typical (a
 /// few per cent candidates): 8 MB of predictions, so the cost per row shows
@@ -131,17 +152,7 @@ fn short_rows(c: &mut Criterion) {
                     let id = BenchmarkId::new(format!("{case}/diagnose_bits/{dtype}"), format!("{isa:?}"));
                     let mut words = vec![0u64; n.div_ceil(64)];
                     group.bench_function(id, |bench| {
-                        bench.iter(|| {
-                            let mut t = Tally::zeros(n_m);
-                            let mut sink = BitSink::new(&mut words, 0);
-                            if is32 {
-                                diagnose_bits_with(isa, black_box(m32), &b, None, &mut sink, &mut t);
-                            } else {
-                                diagnose_bits_with(isa, black_box(m), &b, None, &mut sink, &mut t);
-                            }
-                            sink.finish();
-                            t.invalid
-                        })
+                        bench.iter(|| diagnose_bits_once(isa, m, m32, is32, &b, &mut words))
                     });
                     let id = BenchmarkId::new(format!("{case}/screen/{dtype}"), format!("{isa:?}"));
                     group.bench_function(id, |bench| {
@@ -182,17 +193,7 @@ fn long_rows(c: &mut Criterion) {
             let m32 = Matrix::row_major(&data32, n, n_m).unwrap();
             for (dtype, is32) in [("f64", false), ("f32", true)] {
                 group.bench_function(BenchmarkId::new(format!("{case}/diagnose/{dtype}"), format!("{isa:?}")), |bench| {
-                    bench.iter(|| {
-                        let mut t = Tally::zeros(n_m);
-                        let mut sink = BitSink::new(&mut words, 0);
-                        if is32 {
-                            diagnose_bits_with(isa, black_box(m32), &b, None, &mut sink, &mut t);
-                        } else {
-                            diagnose_bits_with(isa, black_box(m), &b, None, &mut sink, &mut t);
-                        }
-                        sink.finish();
-                        t.invalid
-                    })
+                    bench.iter(|| diagnose_bits_once(isa, m, m32, is32, &b, &mut words))
                 });
             }
         }

@@ -13,15 +13,22 @@ ROOT = Path(__file__).resolve().parent.parent
 ROW = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+[\d.]+\s+([\d.]+)")
 
 
-def test_short_row_table_matches_the_recorded_runs():
-    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    runs = [s for s in text.split("\n=== ") if s.startswith("session 9 final code")]
-    assert len(runs) == 6
+def _floor_ratios(text: str, session: str) -> tuple[int, dict]:
+    """Runs of the section "session <session> final code" and, per (n_m, dtype,
+    case, mode), the speed / floor of each run."""
+    runs = [s for s in text.split("\n=== ") if s.startswith(f"session {session} final code")]
     ratios = defaultdict(list)
     for run in runs:
         for m in map(ROW.match, run.splitlines()):
             if m:
                 ratios[(m[1], m[2], m[3], m[4])].append(float(m[5]))
+    return len(runs), ratios
+
+
+def test_short_row_table_matches_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    n_runs, ratios = _floor_ratios(text, "9")
+    assert n_runs == 6
     page = (ROOT / "docs" / "performance.md").read_text()
     cases = sorted({k[:3] for k in ratios})
     assert len(cases) == 20
@@ -100,14 +107,9 @@ def test_session_9_kernel_figures_match_the_recorded_runs():
     assert f"most falsified, {moved('5/typical/diagnose_bits/f32')};" in page
     assert (f"most falsified, went {moved('10/typical/diagnose_bits/f64')} (f64) and "
             f"{moved('10/typical/diagnose_bits/f32')} (f32)") in page
-    medians = {}
-    for session in ("8", "9"):
-        ratios = defaultdict(list)
-        for run in (r for r in text.split("\n=== ") if r.startswith(f"session {session} final code")):
-            for m in map(ROW.match, run.splitlines()):
-                if m:
-                    ratios[m.groups()[:4]].append(float(m[5]))
-        medians[session] = {k: statistics.median(v) for k, v in ratios.items()}
+    medians = {session: {k: statistics.median(v) for k, v in _floor_ratios(text, session)[1].items()}
+               for session in ("8", "9")}
+    assert len(medians["8"]) == len(medians["9"]) == 40
     largest = max(abs(medians["8"][k] - medians["9"][k]) for k in medians["9"])
     assert round(largest, 1) == 0.2
     assert "differ from these by up to 0.2 either way" in page

@@ -88,6 +88,10 @@ def test_the_checksum_cost_is_the_benchmark_file():
     readme = " ".join(README.read_text(encoding="utf-8").split())
     assert f"a median {in_memory} times the CPU time of the falsifier alone" in readme
     assert f"a median {streaming} times as long as with the checksum replaced by a row counter" in readme
+    table = last.split("\nStreaming ")[1]
+    shares = [float(line.split()[7]) for line in table.splitlines() if line.startswith("float")]
+    assert len(shares) == 24
+    assert f"single cases range from {min(shares):.2f} to {max(shares):.2f}" in readme
 
 
 def test_the_checksum_rates_are_the_benchmark_file():

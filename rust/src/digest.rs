@@ -9,8 +9,8 @@
 //! block's bytes read as u64 words, so float64 words are the values' bits and
 //! a float32 word holds two values. Rows are grouped in fixed blocks of
 //! [`BLOCK_ROWS`] instances counted from instance 0; block checksums depend on
-//! the instance index only. (Version 1 widened float32 to float64 first; that
-//! conversion made float32 sums 2.6 times as slow, see [`ALGORITHM`].)
+//! the instance index only. (Version 1 widened float32 to float64 first, one
+//! conversion per value on top of the sums; see [`ALGORITHM`].)
 //!
 //! **The checksum** ([`ALGORITHM`], a Fletcher-style sum over eight lanes).
 //! Word `w_k` goes to lane `l = k mod 8` at step `j = k div 8`. Per lane,

@@ -22,8 +22,9 @@
 //!   "falsified only by" from masked adds of the fields with exactly one
 //!   bit; NaN lanes are worked out only in the rare periods whose values
 //!   sum to NaN. (Moving each mask to a general register and back, and
-//!   testing every lane for NaN, cost a fifth of the typical case's time:
-//!   f32 rows of 10 from L2, 18 -> 23-25 GB/s on Zen 4.)
+//!   testing every lane for NaN, is what these replaced: `cargo bench --
+//!   short_rows`, "diagnose_bits", section "session 9: cargo bench" of
+//!   `benches/results-short-rows.txt`.)
 //!
 //! Rows after the last whole period (fewer than `R`) go to the caller.
 
