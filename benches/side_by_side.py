@@ -25,7 +25,8 @@ from throughput_methods import in_memory
 CASES = [(5, "float32", "typical", "scr"), (5, "float32", "typical", "diag"), (5, "float32", "worst", "diag"),
          (5, "float64", "worst", "diag"), (10, "float32", "typical", "diag"), (10, "float32", "worst", "diag"),
          (10, "float64", "typical", "diag"), (10, "float64", "worst", "diag"), (16, "float32", "typical", "diag"),
-         (16, "float64", "worst", "diag"), (50, "float32", "worst", "diag"), (50, "float64", "typical", "diag"),
+         (16, "float32", "worst", "diag"), (16, "float32", "typical", "scr"), (16, "float64", "worst", "diag"),
+         (16, "float64", "typical", "diag"), (16, "float64", "worst", "scr"), (50, "float32", "worst", "diag"), (50, "float64", "typical", "diag"),
          (200, "float32", "worst", "diag"), (200, "float64", "worst", "diag"), (200, "float32", "typical", "diag"),
          (200, "float64", "typical", "diag")]
 

@@ -1,8 +1,8 @@
 """The short-row table of docs/performance.md is the median and range of the
-runs recorded in benches/results-short-rows.txt (sections "session 9 final
-code"), and its side-by-side figures the span of the section "session 8: side
-by side", recomputed here from that file: the page prints no number the
-benchmark did not."""
+runs recorded in benches/results-short-rows.txt (sections "session 10 final
+code"), and its side-by-side and kernel figures the spans of the sections they
+name, recomputed here from that file: the page prints no number the benchmark
+did not."""
 
 import re
 import statistics
@@ -27,7 +27,7 @@ def _floor_ratios(text: str, session: str) -> tuple[int, dict]:
 
 def test_short_row_table_matches_the_recorded_runs():
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    n_runs, ratios = _floor_ratios(text, "9")
+    n_runs, ratios = _floor_ratios(text, "10")
     assert n_runs == 6
     page = (ROOT / "docs" / "performance.md").read_text()
     cases = sorted({k[:3] for k in ratios})
@@ -41,9 +41,9 @@ def test_short_row_table_matches_the_recorded_runs():
         assert f"| {n_m} | {dtype} | {case} | {cells[0]} | {cells[1]} |" in page
 
 
-def test_side_by_side_figures_match_the_recorded_runs():
-    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    section = text.split("\n=== session 8: side by side")[1].split("\n=== ")[0]
+def _side_by_side(text: str, session: str) -> dict:
+    """Speed / floor per (version, case) of the section "session <session>: side by side"."""
+    section = text.split(f"\n=== session {session}: side by side")[1].split("\n=== ")[0]
     values = defaultdict(list)
     for line in section.splitlines():
         version, _, cells = line.partition(": ")
@@ -52,6 +52,26 @@ def test_side_by_side_figures_match_the_recorded_runs():
                 *case, ratio = cell.split()
                 values[(version, " ".join(case))].append(float(ratio))
     assert {len(v) for v in values.values()} == {3}
+    return values
+
+
+def _cargo_bench(text: str, session: str) -> dict:
+    """M rows/s per (version, benchmark) of the section "session <session>: cargo bench"."""
+    section = text.split(f"\n=== session {session}: cargo bench")[1].split("\n=== ")[0]
+    rates = defaultdict(list)
+    for line in section.splitlines():
+        cells, arrow, version = line.partition(" <- ")
+        if not arrow:
+            continue
+        for cell in filter(None, (c.strip() for c in cells.split("|"))):
+            name, rate = cell.rsplit(" ", 1)
+            rates[(version.strip(), name)].append(int(rate))
+    return rates
+
+
+def test_side_by_side_figures_match_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    values = _side_by_side(text, "8")
     page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
 
     def span(version, case):
@@ -87,15 +107,7 @@ def test_session_9_kernel_figures_match_the_recorded_runs():
     """The kernel-alone spans quoted for session 9, and the largest move of a
     median between the session-8 and session-9 tables, from the recorded runs."""
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    section = text.split("\n=== session 9: cargo bench")[1].split("\n=== ")[0]
-    rates = defaultdict(list)
-    for line in section.splitlines():
-        cells, arrow, version = line.partition(" <- ")
-        if not arrow:
-            continue
-        for cell in filter(None, (c.strip() for c in cells.split("|"))):
-            name, rate = cell.rsplit(" ", 1)
-            rates[(version.strip(), name)].append(int(rate))
+    rates = _cargo_bench(text, "9")
     page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
 
     def moved(case):
@@ -112,4 +124,51 @@ def test_session_9_kernel_figures_match_the_recorded_runs():
     assert len(medians["8"]) == len(medians["9"]) == 40
     largest = max(abs(medians["8"][k] - medians["9"][k]) for k in medians["9"])
     assert round(largest, 1) == 0.2
-    assert "differ from these by up to 0.2 either way" in page
+    assert "the session-8 and session-9 medians in the same file differ by up to 0.2 either way" in page
+
+
+def test_session_10_figures_match_the_recorded_runs():
+    """Session 10's kernel-alone and side-by-side spans for rows of 16, and the
+    medians the page quotes, from the recorded runs."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    rates = _cargo_bench(text, "10")
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+
+    def span(values):
+        return f"{min(values)}-{max(values)}" if min(values) != max(values) else f"{min(values)}"
+
+    def moved(case):
+        old, new = (rates[(v, f"short_rows_16/{case}/Avx512")] for v in ("old", "main"))
+        assert len(old) == len(new) == 2
+        return f"from {span(old)} to {span(new)}"
+
+    assert f"f64 rows of 16 with every row a candidate went {moved('worst/diagnose_bits/f64')} M rows/s" in page
+    assert f"most falsified {moved('typical/diagnose_bits/f64')};" in page
+    assert (f"f32 rows of 16 {moved('worst/diagnose_bits/f32')} and "
+            f"{moved('typical/diagnose_bits/f32')}; screening f64 rows of 16 {moved('worst/screen/f64')} "
+            f"(every row a candidate) and {moved('typical/screen/f64')}, but screening f32 rows of 16 "
+            f"{moved('worst/screen/f32')} and {moved('typical/screen/f32')}") in page
+    values = _side_by_side(text, "10")
+
+    def ratio_span(version, case):
+        v = values[(version, case)]
+        return f"{min(v):.2f}-{max(v):.2f}"
+
+    def ratio_moved(case):
+        return f"from {ratio_span('old', case)} to {ratio_span('main', case)}"
+
+    assert (f"went {ratio_moved('16 float32 worst diag')} (f32) and {ratio_moved('16 float64 worst diag')} (f64) "
+            f"of the floor, f32 rows of 16 screened, most falsified, {ratio_moved('16 float32 typical scr')};") in page
+    medians = {session: {k: statistics.median(v) for k, v in _floor_ratios(text, session)[1].items()}
+               for session in ("9", "10")}
+    case = ("5", "f32", "typical", "diagnostics")
+    assert f"went from a median of {medians['9'][case]:.2f} to {medians['10'][case]:.2f}" in page
+    f32_16_typical = {f'{medians["10"][("16", "f32", "typical", mode)]:.2f}' for mode in ("diagnostics", "no diagnostics")}
+    assert f32_16_typical == {"0.85"} and "f32 rows of 16 most falsified have medians of 0.85" in page
+    rest = [m for k, m in medians["10"].items() if k[0] in ("10", "50", "200")]
+    assert f"rows of 10, 50 and 200 sensors medians of {min(rest):.2f}-{max(rest):.2f}" in page
+    # "f64 rows of 16, and f32 rows of 16 with every instance a candidate, meet them by the median"
+    assert all(medians["10"][("16", "f64", case, mode)] >= 0.90
+               for case in ("worst", "typical") for mode in ("diagnostics", "no diagnostics"))
+    assert medians["10"][("16", "f32", "worst", "diagnostics")] >= 0.80
+    assert medians["10"][("16", "f32", "worst", "no diagnostics")] >= 0.90

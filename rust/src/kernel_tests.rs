@@ -323,7 +323,7 @@ fn short_rows_match_portable_in_every_layout() {
 /// invalid rows by the NaN test itself.
 #[test]
 fn empty_intervals_and_nan_rows_match_portable() {
-    for k in [3usize, 5, 6, 10, 12] {
+    for k in [3usize, 5, 6, 9, 10, 12, 16, 20] {
         let y: Vec<f64> = (0..k).map(|j| 0.1 + 0.25 * j as f64).collect();
         let mut lo: Vec<f64> = vec![-0.5; k];
         let mut hi: Vec<f64> = vec![0.5; k];
@@ -363,7 +363,9 @@ fn empty_intervals_and_nan_rows_match_portable() {
 /// invalid row, and a NaN next to them must count one; at every level.
 #[test]
 fn infinities_that_cancel_are_not_nan() {
-    for k in [3usize, 5, 7, 10, 12] {
+    // 9 and 16 (and f32 20): rows read one per unit, NaN looked for where a
+    // batch of rows sums to NaN.
+    for k in [3usize, 5, 7, 9, 10, 12, 16, 20] {
         let y = vec![0.0; k];
         let b = SensorBounds::new(&y, &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let plan = ScreenPlan::new(&b, &vec![0; k]);
@@ -416,5 +418,49 @@ fn long_row_counts_survive_flushes() {
         let mut tw = Tally::zeros(k);
         diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
         check_bits(isa, m32, &b, &plan, &want, &tw, "f32, past a flush");
+    }
+}
+
+/// Rows read one per unit (f64 rows of 9 and 16, f32 rows of 16 and 20)
+/// count "falsified only by" in bit planes emptied every 255 batches of 16
+/// rows: over 12,000 rows, most rejected by a single sensor, the tally
+/// matches the portable kernel's, in a row-major and a strided layout.
+#[test]
+fn single_rejections_survive_plane_flushes() {
+    for k in [9usize, 16, 20] {
+        let rows = 16 * 255 * 3 + 37;
+        let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        let mut state = 0x0123_4567_89AB_CDEFu64 ^ k as u64;
+        let gap = 2;
+        let mut wide = vec![0f64; rows * (k + gap)];
+        for i in 0..rows {
+            for j in 0..k {
+                wide[i * (k + gap) + j] = crate::testing::uniform(&mut state) - 0.5;
+            }
+            // Mostly one rejecting sensor, sometimes two, sometimes none;
+            // sensor 0 more than 255 times in each of the 16 lanes of a batch.
+            let u = crate::testing::uniform(&mut state);
+            let j = if u < 0.6 { 0 } else { (u * 1e6) as usize % k };
+            if u < 0.9 {
+                wide[i * (k + gap) + j] = 1.5;
+            }
+            if u < 0.1 {
+                wide[i * (k + gap) + (j + 1) % k] = -3.0;
+            }
+        }
+        let packed: Vec<f64> = (0..rows * k).map(|e| wide[(e / k) * (k + gap) + e % k]).collect();
+        let packed32: Vec<f32> = packed.iter().map(|&v| v as f32).collect();
+        let views = [Matrix::row_major(&packed, rows, k).unwrap(), Matrix::new(&wide, rows, k, k + gap, 1).unwrap()];
+        let m32 = Matrix::row_major(&packed32, rows, k).unwrap();
+        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+        diagnose_with(Isa::Portable, views[0], &b, &mut want, &mut tw);
+        assert!(tw.only_by.iter().sum::<u64>() > (rows as u64) * 7 / 10, "{k} sensors: mostly single rejections");
+        for isa in Isa::available() {
+            for (v, m) in views.iter().enumerate() {
+                check_bits(isa, *m, &b, &plan, &want, &tw, &format!("f64 view {v}, {k} sensors, single rejections"));
+            }
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32, {k} sensors, single rejections"));
+        }
     }
 }

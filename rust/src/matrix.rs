@@ -105,6 +105,11 @@ impl<'a, T: Copy> Matrix<'a, T> {
         let _ = (i, j);
     }
 
+    /// Elements from the start of one row to the start of the next.
+    pub fn row_stride(&self) -> usize {
+        self.row_stride
+    }
+
     /// Whether each row is contiguous (C order).
     pub fn rows_contiguous(&self) -> bool {
         self.col_stride == 1

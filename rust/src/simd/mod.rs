@@ -7,9 +7,11 @@
 
 pub mod avx2;
 pub mod avx512;
+pub mod bit_counts;
 pub mod checksum;
 pub mod medium;
 pub mod periodic;
+pub mod row_batches;
 pub mod short;
 pub mod short_avx2;
 
@@ -67,6 +69,8 @@ pub trait Lanes: Copy {
     unsafe fn nan512(lanes: u32, p: Self::V512) -> u32;
     /// `a + b`, lane by lane (NaN if either is NaN). # Safety: AVX-512F is available.
     unsafe fn add512(a: Self::V512, b: Self::V512) -> Self::V512;
+    /// All lanes 0. # Safety: AVX-512F is available.
+    unsafe fn zero512() -> Self::V512;
     /// Bits of all lanes where `p >= low` and where `p <= high`, unmasked:
     /// with `low <= high`, a lane is in neither iff `p` is NaN (one
     /// comparison fewer than `inside512` and `nan512`). # Safety: AVX-512F is available.
@@ -121,6 +125,12 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx512f")]
     unsafe fn add512(a: __m512d, b: __m512d) -> __m512d {
         _mm512_add_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn zero512() -> __m512d {
+        _mm512_setzero_pd()
     }
 
     #[inline]
@@ -189,6 +199,12 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn add512(a: __m512, b: __m512) -> __m512 {
         _mm512_add_ps(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn zero512() -> __m512 {
+        _mm512_setzero_ps()
     }
 
     #[inline]

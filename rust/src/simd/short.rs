@@ -6,7 +6,8 @@
 //!   to a vector (two rows of 4 f64, four of 2, sixteen f32 rows of 1...):
 //!   one load of consecutive rows, one lane permutation into slots of a power
 //!   of two lanes, one comparison for all of them;
-//! - longer rows take one vector, or one vector plus a masked tail.
+//! - longer rows take one vector, or one vector plus a masked tail, and
+//!   are run sixteen rows at a time by `row_batches`.
 //!
 //! A row's bits in the mask give its verdict and its violation count by a
 //! popcount, without a branch. Diagnostics come from the same masks: the
@@ -22,21 +23,21 @@ use std::arch::x86_64::*;
 /// Rows of `k` sensors laid out in lane slots, and the acceptance intervals
 /// in the same layout.
 pub struct ShortRows<T: Prediction> {
-    low: [T::V512; 2],
-    high: [T::V512; 2],
+    pub(super) low: [T::V512; 2],
+    pub(super) high: [T::V512; 2],
     /// Slot permutation of packed rows (unused when one row per unit).
     index: __m512i,
     /// Lanes holding a sensor in a unit of whole rows, per vector.
-    lanes: [u32; 2],
+    pub(super) lanes: [u32; 2],
     /// Lanes loaded for a whole packed unit (`rows * k` values).
     load: u32,
-    k: usize,
+    pub(super) k: usize,
     /// Lanes (= mask bits) per row slot: a power of two when packed.
     slot: usize,
     /// Rows per unit (one load and test): `W512 / slot` when packed, else 1.
-    rows: usize,
+    pub(super) rows: usize,
     /// Vectors per unit: 2 for rows longer than a vector, else 1.
-    vectors: usize,
+    pub(super) vectors: usize,
 }
 
 /// Mask of the first `n` bits (n <= 64).
@@ -112,61 +113,30 @@ impl<T: Prediction> ShortRows<T> {
         }
     }
 
-    /// (rejecting lanes, NaN lanes) of the first `n` rows (n <= `self.rows`)
-    /// starting at `p`, one bit per lane of the unit (vector 1 above vector 0).
+    /// (rejecting lanes, NaN lanes) of the first `n` packed rows (n <=
+    /// `self.rows`) starting at `p`, one bit per lane.
     ///
     /// # Safety
-    /// AVX-512F is available; `p` points to `n` rows of `k` values (packed:
-    /// back to back; else one row).
+    /// AVX-512F is available; `p` points to `n` rows of `k` values back to back.
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn unit(&self, p: *const T, n: usize) -> (u64, u64) {
-        let w = T::W512;
-        if self.rows > 1 {
-            let v = T::permute512(self.index, T::load512(prefix(n * self.k) as u32, p));
-            let lanes = self.lanes[0] & prefix(n * self.slot) as u32;
-            let out = !T::inside512(lanes, v, self.low[0], self.high[0]) & lanes;
-            return (out as u64, T::nan512(lanes, v) as u64);
-        }
-        let (mut out, mut nan) = (0u64, 0u64);
-        for g in 0..self.vectors {
-            let lanes = self.lanes[g];
-            // `wrapping_add`: the second vector of a row of one vector is never read.
-            let v = T::load512(lanes, p.wrapping_add(w * g));
-            out |= ((!T::inside512(lanes, v, self.low[g], self.high[g]) & lanes) as u64) << (w * g);
-            nan |= (T::nan512(lanes, v) as u64) << (w * g);
-        }
-        (out, nan)
+        let v = T::permute512(self.index, T::load512(prefix(n * self.k) as u32, p));
+        let lanes = self.lanes[0] & prefix(n * self.slot) as u32;
+        let out = !T::inside512(lanes, v, self.low[0], self.high[0]) & lanes;
+        (out as u64, T::nan512(lanes, v) as u64)
     }
 
-    /// `unit` for a whole unit (`R` rows, `G` vectors a row), with the masks
-    /// computed once in `new`.
+    /// `unit` for a whole unit of packed rows, with the masks computed once in `new`.
     ///
     /// # Safety
-    /// As `unit`, with `n = R`.
+    /// As `unit`, with `n = self.rows`.
     #[inline(always)]
-    unsafe fn whole_unit<const R: usize, const G: usize>(&self, p: *const T) -> (u64, u64) {
-        let w = T::W512;
-        if R > 1 {
-            let v = T::permute512(self.index, T::load512(self.load, p));
-            let lanes = self.lanes[0];
-            let out = !T::inside512(lanes, v, self.low[0], self.high[0]) & lanes;
-            return (out as u64, T::nan512(lanes, v) as u64);
-        }
-        let (mut out, mut nan) = (0u64, 0u64);
-        for g in 0..G {
-            let lanes = self.lanes[g];
-            let v = T::load512(lanes, p.wrapping_add(w * g));
-            out |= ((!T::inside512(lanes, v, self.low[g], self.high[g]) & lanes) as u64) << (w * g);
-            nan |= (T::nan512(lanes, v) as u64) << (w * g);
-        }
-        (out, nan)
-    }
-
-    /// Bits of one row slot (from bit 0).
-    #[inline(always)]
-    fn row_bits(&self) -> u64 {
-        prefix(if self.rows > 1 { self.slot } else { 2 * T::W512 })
+    unsafe fn whole_unit(&self, p: *const T) -> (u64, u64) {
+        let v = T::permute512(self.index, T::load512(self.load, p));
+        let lanes = self.lanes[0];
+        let out = !T::inside512(lanes, v, self.low[0], self.high[0]) & lanes;
+        (out as u64, T::nan512(lanes, v) as u64)
     }
 
     /// Writes each row's candidate bit to `sink`.
@@ -210,47 +180,41 @@ impl<T: Prediction> ShortRows<T> {
     ) {
         assert!((!COUNTS || counts.len() == m.rows()) && m.cols() == self.k);
         match (self.rows, self.vectors) {
-            (1, 1) => self.run::<1, 1, DIAG, COUNTS>(m, counts, sink, t),
-            (1, _) => self.run::<1, 2, DIAG, COUNTS>(m, counts, sink, t),
-            (2, _) => self.run::<2, 1, DIAG, COUNTS>(m, counts, sink, t),
-            (4, _) => self.run::<4, 1, DIAG, COUNTS>(m, counts, sink, t),
-            (8, _) => self.run::<8, 1, DIAG, COUNTS>(m, counts, sink, t),
-            _ => self.run::<16, 1, DIAG, COUNTS>(m, counts, sink, t),
+            (1, 1) => self.run_rows::<1, DIAG, COUNTS>(m, counts, sink, t),
+            (1, _) => self.run_rows::<2, DIAG, COUNTS>(m, counts, sink, t),
+            (2, _) => self.run::<2, DIAG, COUNTS>(m, counts, sink, t),
+            (4, _) => self.run::<4, DIAG, COUNTS>(m, counts, sink, t),
+            (8, _) => self.run::<8, DIAG, COUNTS>(m, counts, sink, t),
+            _ => self.run::<16, DIAG, COUNTS>(m, counts, sink, t),
         }
     }
 
-    /// One pass over the rows of `m`, `R` rows per unit (packed when R > 1),
-    /// `G` vectors per row; diagnostics into `t` when `DIAG`, per-row counts
-    /// into `counts` when `COUNTS`. Candidate bits go to `sink` 64 rows at a
-    /// time (R divides 64).
+    /// One pass over the rows of `m`, `R` packed rows per unit (one row per
+    /// unit goes to `run_rows`); diagnostics into `t`
+    /// when `DIAG`, per-row counts into `counts` when `COUNTS`. Candidate
+    /// bits go to `sink` 64 rows at a time (R divides 64).
     #[inline(always)]
-    unsafe fn run<const R: usize, const G: usize, const DIAG: bool, const COUNTS: bool>(
+    unsafe fn run<const R: usize, const DIAG: bool, const COUNTS: bool>(
         &self,
         m: Matrix<'_, T>,
         counts: &mut [u32],
         sink: &mut BitSink,
         t: &mut Tally,
     ) {
-        assert!(R == self.rows && (R == 1 || G == 1));
-        let (field, slot, w, k) = (self.row_bits(), self.slot, T::W512, self.k);
+        assert!(R == self.rows && R > 1);
+        let (field, slot, k) = (prefix(self.slot), self.slot, self.k);
         let ones = _mm512_set1_epi32(1);
         // Per-lane counts in u32 lanes: a block has far fewer than 2^32 rows.
-        let (mut per_lane, mut only_lane) = ([_mm512_setzero_si512(); 2], [_mm512_setzero_si512(); 2]);
+        let (mut per_lane, mut only_lane) = (_mm512_setzero_si512(), _mm512_setzero_si512());
         let mut invalid = 0u64;
-        let packed = if R > 1 {
-            m.packed_rows().expect("rows back to back")
-        } else {
-            &[]
-        };
+        let packed = m.packed_rows().expect("rows back to back");
         let total = m.rows();
         // Candidate bits of the rows since the last push to `sink`.
         let (mut word, mut filled) = (0u64, 0usize);
         for u in 0..total.div_ceil(R) {
             let n = R.min(total - u * R);
-            let (bits, nan) = if R == 1 {
-                self.whole_unit::<R, G>(m.row_slice(u).expect("contiguous rows").as_ptr())
-            } else if n == R {
-                self.whole_unit::<R, G>(packed.as_ptr().add(u * R * k))
+            let (bits, nan) = if n == R {
+                self.whole_unit(packed.as_ptr().add(u * R * k))
             } else {
                 // The last, partial unit of packed rows.
                 self.unit(packed.as_ptr().add(u * R * k), n)
@@ -280,28 +244,23 @@ impl<T: Prediction> ShortRows<T> {
                     // Rare: a NaN row is never a candidate, counted once.
                     invalid += (0..n).filter(|r| (nan >> (r * slot)) & field != 0).count() as u64;
                 }
-                for g in 0..G {
-                    let (b, s) = ((bits >> (w * g)) as __mmask16, (single >> (w * g)) as __mmask16);
-                    per_lane[g] = _mm512_mask_add_epi32(per_lane[g], b, per_lane[g], ones);
-                    only_lane[g] = _mm512_mask_add_epi32(only_lane[g], s, only_lane[g], ones);
-                }
+                per_lane = _mm512_mask_add_epi32(per_lane, bits as __mmask16, per_lane, ones);
+                only_lane = _mm512_mask_add_epi32(only_lane, single as __mmask16, only_lane, ones);
             }
         }
         if filled > 0 {
             sink.push(word, filled as u32);
         }
         if DIAG {
-            let mut lanes = [[0u32; 16]; 4];
-            for (dst, v) in lanes.iter_mut().zip(per_lane.iter().chain(&only_lane)) {
-                _mm512_storeu_si512(dst.as_mut_ptr() as *mut __m512i, *v);
+            let mut lanes = [[0u32; 16]; 2];
+            for (dst, v) in lanes.iter_mut().zip([per_lane, only_lane]) {
+                _mm512_storeu_si512(dst.as_mut_ptr() as *mut __m512i, v);
             }
-            // Lane of sensor j in slot r: r * slot + j (packed), else j over both vectors.
-            let lane = |counts: &[[u32; 16]], l: usize| counts[l / w][l % w] as u64;
+            // Lane of sensor j in slot r: r * slot + j (< w).
             for j in 0..k {
                 for r in 0..R {
-                    let l = if R > 1 { r * slot + j } else { j };
-                    t.per_sensor[j] += lane(&lanes[..2], l);
-                    t.only_by[j] += lane(&lanes[2..], l);
+                    t.per_sensor[j] += lanes[0][r * slot + j] as u64;
+                    t.only_by[j] += lanes[1][r * slot + j] as u64;
                 }
             }
             t.invalid += invalid;

@@ -1,0 +1,142 @@
+//! AVX-512 pass for rows of one or two vectors read one row per unit (f64
+//! rows of 8, 9, 11, 13, 15 or 16 sensors, f32 rows of 16 and of 9-32 whose
+//! period is too long for `periodic`, and rows not stored back to back),
+//! sixteen rows at a time.
+//!
+//! Why: testing a row costs one or two comparisons, but turning its mask
+//! into a verdict, a count and diagnostics one row at a time cost about
+//! twenty more scalar instructions (popcount, shifts, two masked adds). Here
+//! each row only leaves its inside-mask in a small buffer and adds that mask
+//! to per-lane counts of values inside; the verdicts of sixteen rows then
+//! come from one vector comparison of the sixteen masks, the rows rejected
+//! by exactly one sensor from one more, and those rows' bits go to bit
+//! planes (`bit_counts`). NaN rows are looked for only in batches whose
+//! values sum to NaN. Kernel alone, one thread, Zen 4 (`cargo bench --
+//! short_rows_16`, section "session 10: cargo bench" of
+//! `benches/results-short-rows.txt`): f64 rows of 16 with diagnostics,
+//! every row a candidate, 209-211 -> 376-385 M rows/s.
+
+use super::bit_counts::BitPlanes;
+use super::short::ShortRows;
+use crate::candidates::BitSink;
+use crate::kernel::{Prediction, Tally};
+use crate::matrix::Matrix;
+use std::arch::x86_64::*;
+
+/// Rows per batch: one 32-bit mask each, one vector of masks.
+const BATCH: usize = 16;
+
+impl<T: Prediction> ShortRows<T> {
+    /// One pass over the rows of `m`, one row per unit, `G` vectors a row
+    /// (as `run`, which it replaces for one row per unit).
+    ///
+    /// # Safety
+    /// AVX-512F and POPCNT are available; each row of `m` is contiguous;
+    /// `self.rows == 1`, `self.vectors == G`.
+    #[inline(always)]
+    pub(super) unsafe fn run_rows<const G: usize, const DIAG: bool, const COUNTS: bool>(
+        &self,
+        m: Matrix<'_, T>,
+        counts: &mut [u32],
+        sink: &mut BitSink,
+        t: &mut Tally,
+    ) {
+        assert!(self.rows == 1 && self.vectors == G && m.cols() == self.k);
+        let w = T::W512;
+        let lanes = self.lanes;
+        // A row's sensors as bits of one 32-bit mask (vector g at bit w * g).
+        let row_lanes = lanes[0] | if G > 1 { lanes[1] << w } else { 0 };
+        let all = _mm512_set1_epi32(row_lanes as i32);
+        let (ones, zero) = (_mm512_set1_epi32(1), _mm512_setzero_si512());
+        // Per-lane counts of values inside, in u32 lanes (a block has far
+        // fewer than 2^32 rows), and of rows rejected by one sensor only.
+        let (mut inside_lane, mut only) = ([zero; 2], BitPlanes::new());
+        let mut only_by = [0u64; 32];
+        let mut invalid = 0u64;
+        let mut masks = [0u32; BATCH];
+        let (stride, total) = (m.row_stride(), m.rows());
+        let (mut word, mut filled) = (0u64, 0u32);
+        for b0 in (0..total).step_by(BATCH) {
+            let n = BATCH.min(total - b0);
+            // Bounds of the batch checked once: its last row is in `m`.
+            let _ = m.row_slice(b0 + n - 1).expect("contiguous rows");
+            let base = m.row_slice(b0).expect("contiguous rows").as_ptr();
+            let mut sum = [T::zero512(); 2];
+            // `BATCH` constant: unrolled, the row offsets are immediates.
+            #[allow(clippy::needless_range_loop)]
+            for i in 0..BATCH {
+                if i < n {
+                    let p = base.add(i * stride);
+                    let mut mask = 0u32;
+                    for g in 0..G {
+                        // `wrapping_add`: the second vector of a one-vector row is never read.
+                        let v = T::load512(lanes[g], p.wrapping_add(w * g));
+                        let inside = T::inside512(lanes[g], v, self.low[g], self.high[g]);
+                        mask |= inside << (w * g);
+                        if DIAG {
+                            let add = _mm512_mask_add_epi32(inside_lane[g], inside as __mmask16, inside_lane[g], ones);
+                            inside_lane[g] = add;
+                            sum[g] = T::add512(sum[g], v);
+                        }
+                    }
+                    masks[i] = mask;
+                } else {
+                    // Past the last row: no rejecting sensor, masked off below.
+                    masks[i] = row_lanes;
+                }
+            }
+            let valid = if n == BATCH { u16::MAX } else { ((1u32 << n) - 1) as u16 };
+            // Rejecting sensors of each row: its lanes outside.
+            let out = _mm512_xor_si512(_mm512_loadu_si512(masks.as_ptr() as *const __m512i), all);
+            let candidates = _mm512_mask_cmpeq_epi32_mask(valid, out, zero);
+            word |= (candidates as u64) << filled;
+            filled += n as u32;
+            if filled == 64 {
+                sink.push(word, 64);
+                (word, filled) = (0, 0);
+            }
+            if COUNTS {
+                _mm512_storeu_si512(masks.as_mut_ptr() as *mut __m512i, out);
+                for (c, o) in counts[b0..b0 + n].iter_mut().zip(&masks) {
+                    *c = o.count_ones();
+                }
+            }
+            if DIAG {
+                // Exactly one rejecting sensor: out != 0 and out & (out - 1) == 0.
+                let several = _mm512_test_epi32_mask(out, _mm512_sub_epi32(out, ones));
+                let single = valid & !candidates & !several;
+                if single != 0 && only.add(_mm512_maskz_mov_epi32(single, out)) {
+                    // The one rejecting sensor's bit, of those rows.
+                    only.flush(&mut only_by);
+                }
+                let nan = (0..G).fold(0, |a, g| a | T::nan512(lanes[g], sum[g]));
+                if nan != 0 {
+                    // Rare: a NaN row is never a candidate, counted once.
+                    invalid += (0..n)
+                        .filter(|&i| {
+                            let p = base.add(i * stride);
+                            (0..G).any(|g| T::nan512(lanes[g], T::load512(lanes[g], p.wrapping_add(w * g))) != 0)
+                        })
+                        .count() as u64;
+                }
+            }
+        }
+        if filled > 0 {
+            sink.push(word, filled);
+        }
+        if DIAG {
+            only.flush(&mut only_by);
+            let mut per_lane = [[0u32; 16]; 2];
+            for (dst, v) in per_lane.iter_mut().zip(&inside_lane) {
+                _mm512_storeu_si512(dst.as_mut_ptr() as *mut __m512i, *v);
+            }
+            for j in 0..self.k {
+                // Every row visited rejects at sensor j unless its value is inside.
+                t.per_sensor[j] += total as u64 - per_lane[j / w][j % w] as u64;
+                // Bit j of a row's mask is sensor j (vector g at bit w * g).
+                t.only_by[j] += only_by[j];
+            }
+            t.invalid += invalid;
+        }
+    }
+}
