@@ -363,9 +363,10 @@ fn empty_intervals_and_nan_rows_match_portable() {
 /// invalid row, and a NaN next to them must count one; at every level.
 #[test]
 fn infinities_that_cancel_are_not_nan() {
-    // 9 and 16 (and f32 20): rows read one per unit, NaN looked for where a
-    // batch of rows sums to NaN.
-    for k in [3usize, 5, 7, 9, 10, 12, 16, 20] {
+    // 9 and 16 (and f32 17 and 25): rows read one per unit, NaN looked for
+    // where a batch of rows sums to NaN; -inf under a +inf one row down makes
+    // such a sum without a NaN.
+    for k in [3usize, 5, 7, 9, 10, 12, 16, 17, 25] {
         let y = vec![0.0; k];
         let b = SensorBounds::new(&y, &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let plan = ScreenPlan::new(&b, &vec![0; k]);
@@ -375,6 +376,7 @@ fn infinities_that_cancel_are_not_nan() {
             for r in (0..rows).step_by(9) {
                 data[r * k] = f64::INFINITY;
                 data[r * k + k - 1] = f64::NEG_INFINITY;
+                data[(r + 1) * k] = f64::NEG_INFINITY;
                 if with_nan && r % 2 == 0 {
                     data[r * k + k / 2] = f64::NAN;
                 }
@@ -421,13 +423,14 @@ fn long_row_counts_survive_flushes() {
     }
 }
 
-/// Rows read one per unit (f64 rows of 9 and 16, f32 rows of 16 and 20)
-/// count "falsified only by" in bit planes emptied every 255 batches of 16
-/// rows: over 12,000 rows, most rejected by a single sensor, the tally
-/// matches the portable kernel's, in a row-major and a strided layout.
+/// Rows read one per unit (f64 and f32 rows of 9 and 16, f32 rows of 17 and
+/// 25) count "falsified only by" in bit planes emptied after 255 batches of
+/// 16 rows holding such rows: over 12,000 rows, most rejected by a single
+/// sensor, the tally matches the portable kernel's, in a row-major and a
+/// strided layout (f64 rows of 17 and 25 take the medium kernel).
 #[test]
 fn single_rejections_survive_plane_flushes() {
-    for k in [9usize, 16, 20] {
+    for k in [9usize, 16, 17, 25] {
         let rows = 16 * 255 * 3 + 37;
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let plan = ScreenPlan::new(&b, &vec![0; k]);
@@ -450,9 +453,10 @@ fn single_rejections_survive_plane_flushes() {
             }
         }
         let packed: Vec<f64> = (0..rows * k).map(|e| wide[(e / k) * (k + gap) + e % k]).collect();
-        let packed32: Vec<f32> = packed.iter().map(|&v| v as f32).collect();
+        let (packed32, wide32): (Vec<f32>, Vec<f32>) =
+            (packed.iter().map(|&v| v as f32).collect(), wide.iter().map(|&v| v as f32).collect());
         let views = [Matrix::row_major(&packed, rows, k).unwrap(), Matrix::new(&wide, rows, k, k + gap, 1).unwrap()];
-        let m32 = Matrix::row_major(&packed32, rows, k).unwrap();
+        let views32 = [Matrix::row_major(&packed32, rows, k).unwrap(), Matrix::new(&wide32, rows, k, k + gap, 1).unwrap()];
         let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
         diagnose_with(Isa::Portable, views[0], &b, &mut want, &mut tw);
         assert!(tw.only_by.iter().sum::<u64>() > (rows as u64) * 7 / 10, "{k} sensors: mostly single rejections");
@@ -460,7 +464,42 @@ fn single_rejections_survive_plane_flushes() {
             for (v, m) in views.iter().enumerate() {
                 check_bits(isa, *m, &b, &plan, &want, &tw, &format!("f64 view {v}, {k} sensors, single rejections"));
             }
-            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32, {k} sensors, single rejections"));
+            for (v, m) in views32.iter().enumerate() {
+                check_bits(isa, *m, &b, &plan, &want, &tw, &format!("f32 view {v}, {k} sensors, single rejections"));
+            }
         }
+    }
+}
+
+/// Calls over more rows than a kernel pass counts in u32 lanes are split
+/// into passes: split every 1,000 rows here (not 2^31, too slow for a test),
+/// bits, counts and tally equal the portable kernel's for packed, periodic
+/// and one-row-per-unit widths.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn calls_split_into_passes_match_portable() {
+    if !Isa::Avx512.supported() {
+        return; // no other level splits
+    }
+    for k in [3usize, 10, 16, 40] {
+        let rows = 2_345;
+        let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+        let mut state = 0x5555_AAAA_1234_4321u64 ^ k as u64;
+        let data: Vec<f64> = (0..rows * k).map(|_| 2.3 * crate::testing::uniform(&mut state) - 1.15).collect();
+        let m = Matrix::row_major(&data, rows, k).unwrap();
+        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        let mut words = vec![0u64; rows.div_ceil(64) + 1];
+        let (mut counts, mut t) = (vec![0u32; rows], Tally::zeros(k));
+        let mut sink = BitSink::new(&mut words, 3);
+        // SAFETY: AVX-512F, POPCNT and BMI1 are available (checked above).
+        unsafe {
+            crate::simd::avx512::diagnose_bits_in_passes(m, &b, Some(&mut counts), &mut sink, &mut t, 1_000)
+        };
+        sink.finish();
+        let bits: Vec<bool> = (0..rows).map(|i| (words[(i + 3) / 64] >> ((i + 3) % 64)) & 1 == 1).collect();
+        assert_eq!(bits, want.iter().map(|&n| n == 0).collect::<Vec<_>>(), "{k} sensors: bits");
+        assert_eq!((&counts, &t), (&want, &tw), "{k} sensors: counts and tally");
+        assert!(0 < tw.only_by.iter().sum::<u64>() && want.iter().any(|&n| n == 0), "{k} sensors: mixed rows");
     }
 }

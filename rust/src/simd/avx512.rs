@@ -192,10 +192,46 @@ fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Pe
     Some((kernel, data, whole))
 }
 
+/// Rows of one pass of a kernel: the kernels count per lane in u32 lanes,
+/// so a call over more rows (possible through the Rust API, never through
+/// `Falsifier`, whose blocks have 1024) is taken in pieces of this many.
+const MAX_PASS_ROWS: usize = 1 << 31;
+
 /// Candidate bits of the rows of `m` into `sink`, their rejecting-sensor
 /// counts into `counts` if given, their diagnostics into `t`.
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose_bits<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    t: &mut Tally,
+) {
+    diagnose_bits_in_passes(m, b, counts, sink, t, MAX_PASS_ROWS)
+}
+
+/// [`diagnose_bits`] in passes of at most `pass_rows` rows (a parameter so
+/// that a test can split small calls).
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+pub(crate) fn diagnose_bits_in_passes<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    mut counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    t: &mut Tally,
+    pass_rows: usize,
+) {
+    assert!((1..=MAX_PASS_ROWS).contains(&pass_rows));
+    for r0 in (0..m.rows().max(1)).step_by(pass_rows) {
+        let r1 = (r0 + pass_rows).min(m.rows());
+        let part = counts.as_deref_mut().map(|c| &mut c[r0..r1]);
+        diagnose_bits_pass(m.slice_rows(r0, r1), b, part, sink, t);
+    }
+}
+
+/// [`diagnose_bits`] over at most `MAX_PASS_ROWS` rows.
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+fn diagnose_bits_pass<T: Prediction>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     counts: Option<&mut [u32]>,

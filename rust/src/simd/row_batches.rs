@@ -1,7 +1,9 @@
-//! AVX-512 pass for rows of one or two vectors read one row per unit (f64
-//! rows of 8, 9, 11, 13, 15 or 16 sensors, f32 rows of 16 and of 9-32 whose
-//! period is too long for `periodic`, and rows not stored back to back),
-//! sixteen rows at a time.
+//! AVX-512 pass for rows of one or two vectors read one row per unit,
+//! sixteen rows at a time: the rows of half a vector or more that the
+//! periodic kernel does not take (f64 rows of 8, 9, 11, 13, 15 and 16
+//! sensors, f32 rows of 16 and of 9-32 whose period is too long, the rows
+//! after the last whole period, any such width when the rows are not back
+//! to back or BMI2 is missing).
 //!
 //! Why: testing a row costs one or two comparisons, but turning its mask
 //! into a verdict, a count and diagnostics one row at a time cost about
@@ -48,8 +50,9 @@ impl<T: Prediction> ShortRows<T> {
         let row_lanes = lanes[0] | if G > 1 { lanes[1] << w } else { 0 };
         let all = _mm512_set1_epi32(row_lanes as i32);
         let (ones, zero) = (_mm512_set1_epi32(1), _mm512_setzero_si512());
-        // Per-lane counts of values inside, in u32 lanes (a block has far
-        // fewer than 2^32 rows), and of rows rejected by one sensor only.
+        // Per-lane counts of values inside, in u32 lanes (a pass has at most
+        // 2^31 rows, `avx512::MAX_PASS_ROWS`), and of rows rejected by one
+        // sensor only.
         let (mut inside_lane, mut only) = ([zero; 2], BitPlanes::new());
         let mut only_by = [0u64; 32];
         let mut invalid = 0u64;

@@ -7,13 +7,14 @@
 //!   one load of consecutive rows, one lane permutation into slots of a power
 //!   of two lanes, one comparison for all of them;
 //! - longer rows take one vector, or one vector plus a masked tail, and
-//!   are run sixteen rows at a time by `row_batches`.
+//!   are run sixteen rows at a time by `row_batches` (its own doc says how).
 //!
-//! A row's bits in the mask give its verdict and its violation count by a
-//! popcount, without a branch. Diagnostics come from the same masks: the
-//! per-sensor counts are masked vector adds, "falsified only by" adds the
-//! bits of the rows with exactly one rejecting sensor (that bit is the
-//! sensor), and NaN rows are counted only in the rare vectors holding a NaN.
+//! For packed rows, a row's bits in the mask give its verdict and its
+//! violation count by a popcount, without a branch. Diagnostics come from
+//! the same masks: the per-sensor counts are masked vector adds, "falsified
+//! only by" adds the bits of the rows with exactly one rejecting sensor (that
+//! bit is the sensor), and NaN rows are counted only in the rare vectors
+//! holding a NaN.
 
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
@@ -204,7 +205,7 @@ impl<T: Prediction> ShortRows<T> {
         assert!(R == self.rows && R > 1);
         let (field, slot, k) = (prefix(self.slot), self.slot, self.k);
         let ones = _mm512_set1_epi32(1);
-        // Per-lane counts in u32 lanes: a block has far fewer than 2^32 rows.
+        // Per-lane counts in u32 lanes: a pass has at most 2^31 rows (`avx512::MAX_PASS_ROWS`).
         let (mut per_lane, mut only_lane) = (_mm512_setzero_si512(), _mm512_setzero_si512());
         let mut invalid = 0u64;
         let packed = m.packed_rows().expect("rows back to back");
