@@ -69,18 +69,36 @@ def _cargo_bench(text: str, session: str) -> dict:
     return rates
 
 
+def _medians(text: str, *sessions: str) -> dict:
+    """Per session, the median speed / floor of each case over its "final code" runs."""
+    return {session: {k: statistics.median(v) for k, v in _floor_ratios(text, session)[1].items()}
+            for session in sessions}
+
+
+def _kernel_moved(rates: dict, name: str) -> str:
+    """'from a-b to c-d' M rows/s of one cargo benchmark, old and main (a span
+    of equal values written once)."""
+    def span(v):
+        return f"{min(v)}-{max(v)}" if min(v) != max(v) else f"{min(v)}"
+
+    old, new = (rates[(version, name)] for version in ("old", "main"))
+    assert len(old) == len(new) == 2
+    return f"from {span(old)} to {span(new)}"
+
+
+def _ratio_moved(values: dict, case: str) -> str:
+    """'from a-b to c-d' speed / floor of one side-by-side case, old and main."""
+    old, new = values[("old", case)], values[("main", case)]
+    return f"from {min(old):.2f}-{max(old):.2f} to {min(new):.2f}-{max(new):.2f}"
+
+
 def test_side_by_side_figures_match_the_recorded_runs():
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
     values = _side_by_side(text, "8")
     page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
-
-    def span(version, case):
-        v = values[(version, case)]
-        return f"{min(v):.2f}-{max(v):.2f}"
-
     for case in ("5 float32 typical scr", "5 float32 worst diag", "5 float64 worst diag", "10 float64 worst diag",
                  "200 float32 worst diag", "200 float64 worst diag", "10 float32 typical diag"):
-        assert f"from {span('old', case)} to {span('main', case)}" in page, case
+        assert _ratio_moved(values, case) in page, case
 
 
 def test_small_call_figures_match_the_recorded_runs():
@@ -111,16 +129,13 @@ def test_session_9_kernel_figures_match_the_recorded_runs():
     page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
 
     def moved(case):
-        old, new = (rates[(v, f"short_rows_{case}/Avx512")] for v in ("old", "main"))
-        assert len(old) == len(new) == 2
-        return f"from {min(old)}-{max(old)} to {min(new)}-{max(new)}"
+        return _kernel_moved(rates, f"short_rows_{case}/Avx512")
 
     assert f"every row a candidate went {moved('10/worst/diagnose_bits/f64')} M rows/s" in page
     assert f"most falsified, {moved('5/typical/diagnose_bits/f32')};" in page
     assert (f"most falsified, went {moved('10/typical/diagnose_bits/f64')} (f64) and "
             f"{moved('10/typical/diagnose_bits/f32')} (f32)") in page
-    medians = {session: {k: statistics.median(v) for k, v in _floor_ratios(text, session)[1].items()}
-               for session in ("8", "9")}
+    medians = _medians(text, "8", "9")
     assert len(medians["8"]) == len(medians["9"]) == 40
     largest = max(abs(medians["8"][k] - medians["9"][k]) for k in medians["9"])
     assert round(largest, 1) == 0.2
@@ -134,13 +149,8 @@ def test_session_10_figures_match_the_recorded_runs():
     rates = _cargo_bench(text, "10")
     page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
 
-    def span(values):
-        return f"{min(values)}-{max(values)}" if min(values) != max(values) else f"{min(values)}"
-
     def moved(case):
-        old, new = (rates[(v, f"short_rows_16/{case}/Avx512")] for v in ("old", "main"))
-        assert len(old) == len(new) == 2
-        return f"from {span(old)} to {span(new)}"
+        return _kernel_moved(rates, f"short_rows_16/{case}/Avx512")
 
     assert f"f64 rows of 16 with every row a candidate went {moved('worst/diagnose_bits/f64')} M rows/s" in page
     assert f"most falsified {moved('typical/diagnose_bits/f64')};" in page
@@ -150,17 +160,12 @@ def test_session_10_figures_match_the_recorded_runs():
             f"{moved('worst/screen/f32')} and {moved('typical/screen/f32')}") in page
     values = _side_by_side(text, "10")
 
-    def ratio_span(version, case):
-        v = values[(version, case)]
-        return f"{min(v):.2f}-{max(v):.2f}"
-
     def ratio_moved(case):
-        return f"from {ratio_span('old', case)} to {ratio_span('main', case)}"
+        return _ratio_moved(values, case)
 
     assert (f"went {ratio_moved('16 float32 worst diag')} (f32) and {ratio_moved('16 float64 worst diag')} (f64) "
             f"of the floor, f32 rows of 16 screened, most falsified, {ratio_moved('16 float32 typical scr')};") in page
-    medians = {session: {k: statistics.median(v) for k, v in _floor_ratios(text, session)[1].items()}
-               for session in ("9", "10")}
+    medians = _medians(text, "9", "10")
     case = ("5", "f32", "typical", "diagnostics")
     assert f"went from a median of {medians['9'][case]:.2f} to {medians['10'][case]:.2f}" in page
     f32_16_typical = {f'{medians["10"][("16", "f32", "typical", mode)]:.2f}' for mode in ("diagnostics", "no diagnostics")}

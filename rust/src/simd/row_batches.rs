@@ -1,7 +1,7 @@
 //! AVX-512 pass for rows of one or two vectors read one row per unit,
 //! sixteen rows at a time: the rows of half a vector or more that the
 //! periodic kernel does not take (f64 rows of 8, 9, 11, 13, 15 and 16
-//! sensors, f32 rows of 16 and of 9-32 whose period is too long, the rows
+//! sensors, f32 rows of 9, 11, 13, 15-19, 21-23, 25-27 and 29-32, the rows
 //! after the last whole period, any such width when the rows are not back
 //! to back or BMI2 is missing).
 //!
