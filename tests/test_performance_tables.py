@@ -121,15 +121,20 @@ def test_small_call_figures_match_the_recorded_runs():
     assert f"{span('old', 7000)} and {span('main', 7000)}" in page
 
 
+def _kernel_session(session: str, name: str):
+    """The short-row results, the performance page (whitespace collapsed) and
+    `moved(case)`: the kernel-alone span of the bench `name.format(case)` in
+    that session's `cargo bench` section."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    rates = _cargo_bench(text, session)
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+    return text, page, lambda case: _kernel_moved(rates, name.format(case))
+
+
 def test_session_9_kernel_figures_match_the_recorded_runs():
     """The kernel-alone spans quoted for session 9, and the largest move of a
     median between the session-8 and session-9 tables, from the recorded runs."""
-    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    rates = _cargo_bench(text, "9")
-    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
-
-    def moved(case):
-        return _kernel_moved(rates, f"short_rows_{case}/Avx512")
+    text, page, moved = _kernel_session("9", "short_rows_{}/Avx512")
 
     assert f"every row a candidate went {moved('10/worst/diagnose_bits/f64')} M rows/s" in page
     assert f"most falsified, {moved('5/typical/diagnose_bits/f32')};" in page
@@ -145,12 +150,7 @@ def test_session_9_kernel_figures_match_the_recorded_runs():
 def test_session_10_figures_match_the_recorded_runs():
     """Session 10's kernel-alone and side-by-side spans for rows of 16, and the
     medians the page quotes, from the recorded runs."""
-    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    rates = _cargo_bench(text, "10")
-    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
-
-    def moved(case):
-        return _kernel_moved(rates, f"short_rows_16/{case}/Avx512")
+    text, page, moved = _kernel_session("10", "short_rows_16/{}/Avx512")
 
     assert f"f64 rows of 16 with every row a candidate went {moved('worst/diagnose_bits/f64')} M rows/s" in page
     assert f"most falsified {moved('typical/diagnose_bits/f64')};" in page
