@@ -177,3 +177,52 @@ def test_session_10_figures_match_the_recorded_runs():
                for case in ("worst", "typical") for mode in ("diagnostics", "no diagnostics"))
     assert medians["10"][("16", "f32", "worst", "diagnostics")] >= 0.80
     assert medians["10"][("16", "f32", "worst", "no diagnostics")] >= 0.90
+
+
+def _long_rows_session(session: str) -> dict:
+    """M rows/s per (version, benchmark) of the `cargo bench -- long_rows`
+    section "session <session>: rows of up to 64 sensors" (runs headed
+    "=== old, run r ===" and "=== new, run r ===")."""
+    text = (ROOT / "benches" / "results-long-rows.txt").read_text()
+    section = text.split(f"\n=== session {session}: rows of up to 64 sensors")[1]
+    rates, version = defaultdict(list), None
+    for line in section.splitlines()[1:]:
+        head = re.match(r"=== (old|new), run \d ===", line)
+        if head:
+            version = head[1]
+        elif line.startswith("long_rows"):
+            name, rate, _unit = line.split()
+            rates[(version, name)].append(float(rate))
+    return rates
+
+
+def test_session_12_figures_match_the_recorded_runs():
+    """Session 12's kernel-alone spans for rows of 50 and its side-by-side
+    spans through `falsify`, from the recorded runs."""
+    rates = _long_rows_session("12")
+
+    def moved(case):
+        old, new = (rates[(v, f"long_rows_50/{case}/Avx512")] for v in ("old", "new"))
+        assert len(old) == len(new) == 2
+        return "from {}-{} to {}-{}".format(*(round(x) for x in (min(old), max(old), min(new), max(new))))
+
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+    assert (f"f64 rows of 50 with every row a candidate went {moved('worst/diagnose/f64')} M rows/s, with "
+            f"45 % of the rows rejected {moved('typical/diagnose/f64')}; f32 rows of 50 {moved('worst/diagnose/f32')} "
+            f"and {moved('typical/diagnose/f32')}.") in page
+    medium = " ".join((ROOT / "rust" / "src" / "simd" / "medium.rs").read_text().replace("//!", "").split())
+    assert (f"candidate {moved('worst/diagnose/f64')[5:].replace(' to ', ' -> ')} M rows/s" in medium
+            and moved("typical/diagnose/f32")[5:].replace(" to ", " -> ") in medium)
+    values = _side_by_side((ROOT / "benches" / "results-short-rows.txt").read_text(), "12")
+
+    def span(version, case):
+        v = values[(version, case)]
+        return f"{min(v):.2f}-{max(v):.2f}"
+
+    assert (f"went {_ratio_moved(values, '50 float64 typical diag')} of the floor (f64, most falsified), "
+            f"{_ratio_moved(values, '50 float32 worst diag')} (f32, every instance a candidate) and "
+            f"{_ratio_moved(values, '50 float32 typical diag')} (f32, most falsified)") in page
+    assert (f"read {span('old', '50 float64 worst diag')} before and {span('main', '50 float64 worst diag')} after"
+            in page)
+    assert (f"whose code did not change, {span('old', '200 float64 typical diag')} and "
+            f"{span('main', '200 float64 typical diag')}.") in page
