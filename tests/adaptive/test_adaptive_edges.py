@@ -95,5 +95,7 @@ def test_a_thin_kept_region_gets_its_true_candidate_ranges(monkeypatch):
     monkeypatch.setattr(waves, "EDGE_POINTS", 1)
     monkeypatch.setattr(waves, "WALK", False)
     old = _run().candidate_parameters
-    assert (c.min(axis=0) <= old.min(axis=0)).all() and (c.max(axis=0) >= old.max(axis=0)).all()
+    # Both find an end by bisection to 2^-24 of the box (`push`'s steps): below that, ends are equal.
+    res = 2.0**-24
+    assert (c.min(axis=0) <= old.min(axis=0) + res).all() and (c.max(axis=0) >= old.max(axis=0) - res).all()
     assert c[:, 0].min() < old[:, 0].min() - 1e-3 or c[:, 0].max() > old[:, 0].max() + 1e-3
