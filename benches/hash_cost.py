@@ -27,15 +27,20 @@ than the screening kernel reads the same bytes and faster than XXH3-128
 waiting on memory, so there is no idle time to hide the sums in, and summing
 what it has just read adds to its CPU time (the first table).
 
-The second table is the streaming rate the checksum is meant to be cheap
-beside: ``edmf_rs.falsify`` over a ``.npy`` file (warm in the page cache, as
-after it was written) with no checkpoint, with a checkpoint folder whose
-checksum is replaced by a row counter (`RowCounter`), and with a real one,
-wall time, rounds in rotating order. "sum share" (real / counter) is the
-checksum's cost; "ckpt/none" what the rest of a checkpoint costs.
+The last two tables are the streaming rate the checksum is meant to be
+cheap beside: ``edmf_rs.falsify`` over a ``.npy`` file with no checkpoint,
+with a checkpoint folder whose checksum is replaced by a row counter
+(`RowCounter`), and with a real one, wall time, rounds in rotating order.
+"sum share" (real / counter) is the checksum's cost; "ckpt/none" what the
+rest of a checkpoint costs. The file is read warm (in the page cache, as
+after it was written: the copy out of the page cache is then most of the
+CPU time, the hardest case for the checksum) and cold (its pages dropped
+with ``posix_fadvise(POSIX_FADV_DONTNEED)`` before every run: read from the
+disk, as a file larger than the memory always is).
 
-Run: ``python benches/hash_cost.py`` (about two minutes; ``--mbytes`` sets the
-data per in-memory case, ``--file-mbytes`` per file, ``--repeats`` the rounds).
+Run: ``python benches/hash_cost.py`` (about seven minutes; ``--mbytes`` sets
+the data per in-memory case, ``--file-mbytes`` per file, ``--repeats`` and
+``--cold-repeats`` the rounds).
 """
 
 from __future__ import annotations
@@ -145,11 +150,23 @@ def stream(path: Path, y, diagnostics: bool, folder: Path | None, checksum: bool
         return time.perf_counter() - wall
 
 
-def streaming_table(args) -> list[float]:
+def evict(path: Path) -> None:
+    """Drops the file's pages from the page cache, so the next run reads the disk."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+        os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+    finally:
+        os.close(fd)
+
+
+def streaming_table(args, cold: bool) -> list[float]:
     """On/off wall ratios of checkpointed file streaming (see the module docs)."""
-    print(f"\nStreaming {args.file_mbytes} MB per case from a .npy file (warm): no checkpoint (none), a checkpoint "
+    repeats = args.cold_repeats if cold else args.repeats
+    print(f"\nStreaming {args.file_mbytes} MB per case from a .npy file ({'cold: read from the disk' if cold else 'warm'}): "
+          f"no checkpoint (none), a checkpoint "
           f"folder with the checksum replaced by a row counter (ckpt), and a real checkpoint (ckpt+sum); wall s, "
-          f"best of {args.repeats} rounds in rotating order; {load()}")
+          f"best of {repeats} rounds in rotating order; {load()}")
     head = (f"{'dtype':7} {'n_m':>3} {'case':7} {'pass':11} {'none':>7} {'ckpt':>7} {'ckpt+sum':>8} "
             f"{'sum share':>9} {'ckpt/none':>9} {'GB/s none':>9}")
     print(head)
@@ -174,9 +191,11 @@ def streaming_table(args) -> list[float]:
                         stream(path, y, diagnostics, folder)  # warm
                         times = {v: [] for v in variants}
                         order = list(variants)
-                        for k in range(args.repeats):
+                        for k in range(repeats):
                             for v in order[k % 3:] + order[:k % 3]:
                                 ckpt, summed = variants[v]
+                                if cold:
+                                    evict(path)
                                 times[v].append(stream(path, y, diagnostics, folder if ckpt else None, summed))
                         best_of = {v: min(t) for v, t in times.items()}
                         share = best_of["ckpt+sum"] / best_of["ckpt"]
@@ -186,7 +205,8 @@ def streaming_table(args) -> list[float]:
                               f"{best_of['ckpt']:7.3f} {best_of['ckpt+sum']:8.3f} {share:9.3f} "
                               f"{best_of['ckpt'] / best_of['none']:9.3f} "
                               f"{args.file_mbytes / 1e3 / best_of['none']:9.2f}", flush=True)
-    print(f"streaming, ckpt+sum / ckpt: median {statistics.median(ratios):.3f}, largest {max(ratios):.3f}; "
+    print(f"streaming {'cold' if cold else 'warm'}, ckpt+sum / ckpt: median {statistics.median(ratios):.3f}, "
+          f"largest {max(ratios):.3f}; "
           f"after: {load()}")
     return ratios
 
@@ -196,6 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mbytes", type=int, default=96, help="data per case, MB (default 96, above the L3 cache)")
     ap.add_argument("--repeats", type=int, default=9, help="alternating rounds per case (default 9)")
     ap.add_argument("--file-mbytes", type=int, default=1000, help="data per streamed file, MB (default 1000)")
+    ap.add_argument("--cold-repeats", type=int, default=5, help="rounds per cold streaming case (default 5)")
     ap.add_argument("--nm", type=int, nargs="+", default=[5, 10, 50])
     args = ap.parse_args(argv)
     start = time.perf_counter()
@@ -229,7 +250,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"CPU on/off of the best times: median {statistics.median(ratios):.3f}, "
           f"largest {max(ratios):.3f}; after: {load()}")
     if args.file_mbytes > 0:
-        streaming_table(args)
+        streaming_table(args, cold=False)
+        streaming_table(args, cold=True)
     print(f"{time.perf_counter() - start:.0f} s")
     return 0
 
