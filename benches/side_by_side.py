@@ -54,10 +54,13 @@ def main(argv=None) -> int:
     ap.add_argument("label", help="name printed before the line (e.g. old, main)")
     ap.add_argument("--mb", type=float, default=400.0, help="array size in MB (default 400)")
     ap.add_argument("--repeat", type=int, default=7, help="best of k (default 7)")
+    ap.add_argument("--case", nargs=4, action="append", metavar=("N_M", "DTYPE", "CASE", "MODE"),
+                    help="a case instead of the default list, e.g. --case 16 float64 worst scr (repeatable)")
     args = ap.parse_args(argv)
+    cases = [(int(n_m), dtype, case, mode) for n_m, dtype, case, mode in args.case] if args.case else CASES
     with ThreadPoolExecutor(2) as pool:
         cells = [f"{n_m} {dtype} {case} {mode} {ratio(pool, n_m, dtype, case, mode, args.mb, args.repeat):.2f}"
-                 for n_m, dtype, case, mode in CASES]
+                 for n_m, dtype, case, mode in cases]
     print(f"{args.label}: " + " | ".join(cells), flush=True)
     return 0
 

@@ -214,6 +214,8 @@ impl<T: Prediction> ShortRows<T> {
         let (mut word, mut filled) = (0u64, 0usize);
         for u in 0..total.div_ceil(R) {
             let n = R.min(total - u * R);
+            // One unit is at most one vector: one line `PREFETCH_BYTES` ahead.
+            super::prefetch_line(packed.as_ptr().add(u * R * k));
             let (bits, nan) = if n == R {
                 self.whole_unit(packed.as_ptr().add(u * R * k))
             } else {
