@@ -76,9 +76,9 @@ impl<T: Prediction> ShortRows<T> {
                     let p = base.add(i * stride);
                     let mut mask = 0u32;
                     for g in 0..G {
-                        // The line `PREFETCH_BYTES` ahead of each vector: without it
-                        // these loads wait on memory (screening f64 rows of 16, one
-                        // thread: half the read speed).
+                        // The line `PREFETCH_BYTES` ahead of each vector, as in the
+                        // other kernels (without it, screening f64 rows of 16 from
+                        // memory spent half its time on these loads: perf).
                         super::prefetch_line(p.wrapping_add(w * g));
                         // `wrapping_add`: the second vector of a one-vector row is never read.
                         let v = T::load512(lanes[g], p.wrapping_add(w * g));
@@ -102,19 +102,14 @@ impl<T: Prediction> ShortRows<T> {
                     masks[i] = row_lanes;
                 }
             }
-            if !DIAG && !COUNTS {
-                word |= (screened as u64) << filled;
-                filled += n as u32;
-                if filled == 64 {
-                    sink.push(word, 64);
-                    (word, filled) = (0, 0);
-                }
-                continue;
-            }
             let valid = if n == BATCH { u16::MAX } else { ((1u32 << n) - 1) as u16 };
-            // Rejecting sensors of each row: its lanes outside.
-            let out = _mm512_xor_si512(_mm512_loadu_si512(masks.as_ptr() as *const __m512i), all);
-            let candidates = _mm512_mask_cmpeq_epi32_mask(valid, out, zero);
+            // Rejecting sensors of each row: its lanes outside (not needed to screen).
+            let (candidates, out) = if !DIAG && !COUNTS {
+                (screened, zero)
+            } else {
+                let out = _mm512_xor_si512(_mm512_loadu_si512(masks.as_ptr() as *const __m512i), all);
+                (_mm512_mask_cmpeq_epi32_mask(valid, out, zero), out)
+            };
             word |= (candidates as u64) << filled;
             filled += n as u32;
             if filled == 64 {
