@@ -63,6 +63,7 @@ import numpy as np
 from edmf_rs import _core
 from edmf_rs.stream.npy import CHUNK_BYTES
 from scipy.special import erfinv
+from throughput_methods import evict  # beside this script
 
 
 def cpu_model() -> str:
@@ -148,16 +149,6 @@ def stream(path: Path, y, diagnostics: bool, folder: Path | None, checksum: bool
         wall = time.perf_counter()
         edmf_rs.falsify(str(path), y, t, diagnostics=diagnostics, progress=False, checkpoint=folder)
         return time.perf_counter() - wall
-
-
-def evict(path: Path) -> None:
-    """Drops the file's pages from the page cache, so the next run reads the disk."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-        os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
-    finally:
-        os.close(fd)
 
 
 def streaming_table(args, cold: bool) -> list[float]:

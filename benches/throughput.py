@@ -37,7 +37,6 @@ page cache with posix_fadvise before each run).
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 import tempfile
@@ -50,6 +49,7 @@ import numpy as np
 from throughput_methods import (
     best,
     edmf,
+    evict,
     file_numpy_reference,
     file_numpy_rule,
     file_read,
@@ -198,16 +198,6 @@ import resource, subprocess, sys
 subprocess.run([sys.executable, "-c", sys.argv[1], sys.argv[2]], check=True)
 print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)  # KiB on Linux
 """
-
-
-def evict(path: Path) -> None:
-    """Drops the file from the page cache so the next read comes from disk."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-        os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
-    finally:
-        os.close(fd)
 
 
 def peak_rss_mib(path_or_flag: str) -> float:

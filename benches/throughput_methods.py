@@ -22,6 +22,18 @@ from edmf_rs import Thresholds, reference
 CHUNK_BYTES = 16 * 2**20  # NumPy chunked baselines read/compute this much at a time
 
 
+# -- page cache ----------------------------------------------------------------
+
+def evict(path: Path) -> None:
+    """Drops the file from the page cache so the next read comes from disk."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+        os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+    finally:
+        os.close(fd)
+
+
 # -- machine -------------------------------------------------------------------
 
 def machine() -> str:

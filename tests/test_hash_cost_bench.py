@@ -3,17 +3,22 @@ row per case in every table (in memory, and streaming a file warm and cold,
 with and without a checkpoint). Nothing here is timed: this only keeps the script from rotting."""
 
 import importlib.util
+import sys
 from pathlib import Path
 
 SCRIPT = Path(__file__).resolve().parent.parent / "benches" / "hash_cost.py"
 
 
 def test_every_case_is_printed(capsys):
-    spec = importlib.util.spec_from_file_location("hash_cost", SCRIPT)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    assert bench.main(["--mbytes", "1", "--file-mbytes", "1", "--repeats", "1", "--cold-repeats", "1",
-                       "--nm", "5", "10"]) == 0
+    sys.path.insert(0, str(SCRIPT.parent))  # as when run as a script: its helper module sits beside it
+    try:
+        spec = importlib.util.spec_from_file_location("hash_cost", SCRIPT)
+        bench = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(bench)
+        assert bench.main(["--mbytes", "1", "--file-mbytes", "1", "--repeats", "1", "--cold-repeats", "1",
+                           "--nm", "5", "10"]) == 0
+    finally:
+        sys.path.remove(str(SCRIPT.parent))
     out = capsys.readouterr().out
     in_memory, warm, cold = out.split("\nStreaming ")
     cases = [(dtype, nm, case, mode) for dtype in ("float64", "float32") for nm in ("5", "10")

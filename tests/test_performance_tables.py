@@ -13,10 +13,15 @@ ROOT = Path(__file__).resolve().parent.parent
 ROW = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+[\d.]+\s+([\d.]+)")
 
 
+def _final_runs(text: str, session: str) -> list[str]:
+    """The sections "session <session> final code" (one run of the floor table each)."""
+    return [s for s in text.split("\n=== ") if s.startswith(f"session {session} final code")]
+
+
 def _floor_ratios(text: str, session: str) -> tuple[int, dict]:
     """Runs of the section "session <session> final code" and, per (n_m, dtype,
     case, mode), the speed / floor of each run."""
-    runs = [s for s in text.split("\n=== ") if s.startswith(f"session {session} final code")]
+    runs = _final_runs(text, session)
     ratios = defaultdict(list)
     for run in runs:
         for m in map(ROW.match, run.splitlines()):
@@ -231,8 +236,8 @@ def test_session_12_figures_match_the_recorded_runs():
 def _floor_ms(text: str, session: str) -> float:
     """Median time of the read floor over every case of a session's "final code" runs."""
     floor = re.compile(r"\s*\d+\s+f\d\d\s+\w+\s+[\d,]+\s+floor\s+([\d.]+)")
-    runs = [s for s in text.split("\n=== ") if s.startswith(f"session {session} final code")]
-    return statistics.median(float(m[1]) for run in runs for m in map(floor.match, run.splitlines()) if m)
+    return statistics.median(float(m[1]) for run in _final_runs(text, session)
+                             for m in map(floor.match, run.splitlines()) if m)
 
 
 def test_session_13_figures_match_the_recorded_runs():
