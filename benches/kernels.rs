@@ -5,7 +5,9 @@
 //! "typical" falsifies over 90 % of them.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use edmf_core::kernel::{diagnose_bits_with, diagnose_with, screen_with, BitSink, ScreenPlan, SensorBounds};
+use edmf_core::kernel::{
+    diagnose_bits_with, diagnose_with, screen_bits_with, screen_with, BitSink, ScreenPlan, SensorBounds,
+};
 use edmf_core::{shortest_intervals, Falsifier, Isa, Matrix, Mode, Tally, Thresholds};
 use std::hint::black_box;
 use std::time::Duration;
@@ -171,13 +173,14 @@ fn short_rows(c: &mut Criterion) {
     }
 }
 
-/// Long rows (50, 100 and 200 sensors; f64 and f32) with diagnostics, the kernel
-/// alone on one thread at the widest level: worst case (every row a
-/// candidate: the verdict-first path) and typical (about 1.2 % of values
-/// outside each interval: 45 % of rows of 50 falsified, 70 % of rows of 100,
-/// 91 % of rows of 200; every rejected row attributed), 8 MB of predictions, bits into a sink as
-/// the falsifier writes them; rows of 50 take the medium kernel (rows of up
-/// to 64 sensors in registers), rows of 100 and 200 the long-row one.
+/// Long rows (50, 100 and 200 sensors; f64 and f32) with diagnostics and
+/// screening, the kernel alone on one thread at the widest level: worst case
+/// (every row a candidate: the verdict-first path) and typical (about 1.2 %
+/// of values outside each interval: 45 % of rows of 50 falsified, 70 % of
+/// rows of 100, 91 % of rows of 200; every rejected row attributed), 8 MB
+/// of predictions, bits into a sink as the falsifier writes them; with
+/// diagnostics rows of 50 take the medium kernel (rows of up to 64 sensors
+/// in registers), rows of 100 and 200 the long-row one.
 /// `cargo bench -- long_rows`.
 fn long_rows(c: &mut Criterion) {
     let isa = Isa::detect();
@@ -197,6 +200,18 @@ fn long_rows(c: &mut Criterion) {
             for (dtype, is32) in [("f64", false), ("f32", true)] {
                 group.bench_function(BenchmarkId::new(format!("{case}/diagnose/{dtype}"), format!("{isa:?}")), |bench| {
                     bench.iter(|| diagnose_bits_once(isa, m, m32, is32, &b, &mut words))
+                });
+                let plan = ScreenPlan::new(&b, &vec![0; n_m]);
+                group.bench_function(BenchmarkId::new(format!("{case}/screen/{dtype}"), format!("{isa:?}")), |bench| {
+                    bench.iter(|| {
+                        let mut sink = BitSink::new(&mut words, 0);
+                        if is32 {
+                            screen_bits_with(isa, black_box(m32), &b, &plan, &mut sink);
+                        } else {
+                            screen_bits_with(isa, black_box(m), &b, &plan, &mut sink);
+                        }
+                        sink.finish();
+                    })
                 });
             }
         }

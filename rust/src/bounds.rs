@@ -166,8 +166,10 @@ impl ScreenPlan {
         &self.blocks
     }
 
-    /// Whether the vector kernels stop at the first rejecting block. Rows of
-    /// up to [`WHOLE_ROW_BLOCKS`] blocks are tested whole, without a branch:
+    /// Whether the AVX2 kernel stops at the first rejecting block (the
+    /// AVX-512 kernels test every row whole, see `simd::avx512::any_rejecting`;
+    /// the portable one always stops). Rows of up to [`WHOLE_ROW_BLOCKS`]
+    /// blocks are tested whole, without a branch:
     /// their cache lines are fetched whole anyway, and when which block
     /// rejects varies from row to row, each exit mispredicts (measured on
     /// 2M x 50 rows, 95 % falsified: 8 % slower from memory, 25 % from cache).

@@ -108,22 +108,21 @@ fn diagnose_row<T: Prediction>(
 ) -> (u32, bool, usize) {
     let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
     assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && counts.0.len() >= k.div_ceil(w) * w);
-    super::prefetch_ahead(row);
     // Whole vectors, then one masked tail.
     let (whole, tail) = (k - k % w, prefix(k % w));
-    // SAFETY: AVX-512F is enabled; the lanes lie below `k`, within `row`,
-    // and the acceptance vectors are padded.
-    let rejecting = |j: usize, lanes: u32| unsafe { group(row, accept, j, lanes) };
-    if after_candidate {
-        let any = (0..whole).step_by(w).fold(0, |any, j| any | rejecting(j, prefix(w)).0);
-        let in_tail = if tail != 0 { rejecting(whole, tail).0 } else { 0 };
-        if (any | in_tail) == 0 {
-            return (0, false, k.saturating_sub(1));
-        }
+    // SAFETY: AVX-512F is enabled; the intervals are padded (asserted).
+    if after_candidate && unsafe { any_rejecting(row, accept) } == 0 {
+        return (0, false, k.saturating_sub(1));
     }
     let (mut n, mut nan, mut first) = (0u32, 0u32, usize::MAX);
     let mut tally = |j: usize, lanes: u32| {
-        let (out, nans) = rejecting(j, lanes);
+        // The first visit of the row asks for the lines ahead, spread as in `any_rejecting`.
+        if !after_candidate {
+            super::prefetch_line(row.as_ptr().wrapping_add(j));
+        }
+        // SAFETY: AVX-512F is enabled; the lanes lie below `k`, within `row`,
+        // and the acceptance vectors are padded.
+        let (out, nans) = unsafe { group(row, accept, j, lanes) };
         // SAFETY: AVX-512F is enabled; `counts` is padded to whole vectors.
         unsafe { add_counts::<T>(counts, j, out) };
         n += out.count_ones();
@@ -142,38 +141,49 @@ fn diagnose_row<T: Prediction>(
     (n, nan != 0, first.min(k.saturating_sub(1)))
 }
 
-/// True if any sensor rejects the row, visiting the plan's blocks in order
-/// with one branch per block (short rows: all blocks, no branch).
+/// Rejecting lanes of every vector of `row`, or'ed: nonzero iff some sensor
+/// rejects the row (a NaN is outside every interval). Every vector, in
+/// column order, without a branch, each asking first for the line
+/// `PREFETCH_BYTES` past it.
+///
+/// Why not stop at the first rejecting block, most rejecting first, and
+/// prefetch the whole row at its start, as this did: from memory that order
+/// reads a row's lines out of sequence and mispredicts each exit, and a
+/// burst of one prefetch per line (25 for f64 rows of 200) stalls the loads
+/// behind it. Side by side through `falsify` (AMD EPYC Zen 4, 2 threads,
+/// `benches/results-short-rows.txt`, section "session 14: side by side"),
+/// rows of 100 and 200 sensors went from 0.58-0.90 of the read floor to
+/// 0.78-1.15. The price is paid from cache, where stopping early saved work:
+/// the kernel alone screening f64 rows of 200 with 91 % rejected went from
+/// 58-60 to 41 M rows/s, with every row a candidate from 28-31 to 41-44
+/// (`cargo bench -- long_rows`, `benches/results-long-rows.txt`, "session 14").
+///
+/// # Safety
+/// AVX-512F is available; the acceptance vectors are padded to whole blocks.
+#[inline(always)]
+unsafe fn any_rejecting<T: Prediction>(row: &[T], accept: &[Vec<T>; 2]) -> u32 {
+    let (k, w) = (row.len(), T::W512);
+    let whole = k - k % w;
+    let mut any = 0;
+    for j in (0..whole).step_by(w) {
+        super::prefetch_line(row.as_ptr().wrapping_add(j));
+        any |= group(row, accept, j, prefix(w)).0;
+    }
+    if whole < k {
+        super::prefetch_line(row.as_ptr().wrapping_add(whole));
+        any |= group(row, accept, whole, prefix(k - whole)).0;
+    }
+    any
+}
+
+/// True if any sensor rejects the row (see [`any_rejecting`]).
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds, plan: &ScreenPlan) -> bool {
-    let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
-    assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK);
-    super::prefetch_ahead(row);
-    let tail = k - k % BLOCK;
-    // Rejecting lanes of the block starting at sensor `s`.
-    let block = |s: usize| {
-        let mut rejects = 0;
-        // A fixed number of vectors per block; in the last, partial block the
-        // lanes past the row's end are masked off (possibly all of a vector).
-        for g in 0..BLOCK / w {
-            let j = s + g * w;
-            let lanes = if s < tail {
-                prefix(w)
-            } else {
-                prefix(k.saturating_sub(j).min(w))
-            };
-            // SAFETY: AVX-512F is enabled; the lanes read lie below `k` and the
-            // acceptance vectors are padded to whole blocks.
-            rejects |= unsafe { group(row, accept, j, lanes) }.0;
-        }
-        rejects
-    };
-    if plan.exits_early() {
-        plan.blocks().iter().any(|&s| block(s) != 0)
-    } else {
-        plan.blocks().iter().fold(0, |any, &s| any | block(s)) != 0
-    }
+fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
+    let accept = T::accepted(b);
+    assert!(accept[0].len() >= row.len().div_ceil(BLOCK) * BLOCK);
+    // SAFETY: AVX-512F is enabled; the intervals are padded (asserted).
+    unsafe { any_rejecting(row, accept) != 0 }
 }
 
 /// The rows of `m` that the periodic kernel takes (whole periods of rows
@@ -318,7 +328,7 @@ pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &Scr
         unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, sink) };
     } else {
         via_counts(m.rows(), None, sink, |r0, r1, out| {
-            screen_impl(m.slice_rows(r0, r1), b, plan, out, |row| row_rejected(row, b, plan))
+            screen_impl(m.slice_rows(r0, r1), b, plan, out, |row| row_rejected(row, b))
         })
     }
 }
