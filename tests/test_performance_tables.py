@@ -35,6 +35,7 @@ def test_short_row_table_matches_the_recorded_runs():
     n_runs, ratios = _floor_ratios(text, "14")
     assert n_runs == 6
     page = (ROOT / "docs" / "performance.md").read_text()
+    readme = (ROOT / "README.md").read_text()
     cases = sorted({k[:3] for k in ratios})
     assert len(cases) == 20
     for n_m, dtype, case in cases:
@@ -43,7 +44,8 @@ def test_short_row_table_matches_the_recorded_runs():
             v = ratios[(n_m, dtype, case, mode)]
             assert len(v) == 6
             cells.append(f"{statistics.median(v):.2f} ({min(v):.2f}-{max(v):.2f})")
-        assert f"| {n_m} | {dtype} | {case} | {cells[0]} | {cells[1]} |" in page
+        row = f"| {n_m} | {dtype} | {case} | {cells[0]} | {cells[1]} |"
+        assert row in page and row in readme
 
 
 def _side_by_side(text: str, session: str) -> dict:
@@ -309,6 +311,10 @@ def test_session_14_figures_match_the_recorded_runs():
     assert round(statistics.median(floors["slow"])) == 17 and round(800 / statistics.median(floors["slow"])) == 46
     assert round(statistics.median(floors["fast"])) == 11 and round(800 / statistics.median(floors["fast"])) == 70
     assert "in about 17 ms (46 GB/s)" in page and "in about 11 ms (70 GB/s)" in page
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    diag_fast = [x for k, xs in fast.items() if k[3] == "diagnostics" for x in xs]
+    assert (f"about 46 and, in spells, about 70 GB/s; at the faster one the kernels with diagnostics read at "
+            f"{min(diag_fast):.2f}-{max(diag_fast):.2f} of it") in readme
     assert round(statistics.median(floors["slow"]) / statistics.median(floors["fast"]), 1) == 1.5
     assert "a floor 1.5x faster" in page
     assert round(800 / statistics.median(floors["fast"]) / 2) == 35 and "In the fast spells, 35 GB/s a core" in page
