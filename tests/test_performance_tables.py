@@ -48,9 +48,9 @@ def test_short_row_table_matches_the_recorded_runs():
         assert row in page and row in readme
 
 
-def _side_by_side(text: str, session: str) -> dict:
-    """Speed / floor per (version, case) of the section "session <session>: side by side"."""
-    section = text.split(f"\n=== session {session}: side by side")[1].split("\n=== ")[0]
+def _side_by_side(text: str, session: str, title: str = "side by side") -> dict:
+    """Speed / floor per (version, case) of the section "session <session>: <title>"."""
+    section = text.split(f"\n=== session {session}: {title}")[1].split("\n=== ")[0]
     values = defaultdict(list)
     for line in section.splitlines():
         version, _, cells = line.partition(": ")
@@ -377,3 +377,25 @@ def test_session_14_figures_match_the_recorded_runs():
             f"{kernel_moved('200/worst/diagnose/f64')} (f64, every row a candidate).") in page
     assert (f"screening f64 rows of 200 with 91 % rejected went {kernel_moved('200/typical/screen/f64')} M rows/s, "
             f"with every row a candidate {kernel_moved('200/worst/screen/f64')}") in kernel
+    # The AVX2 kernels side by side.
+    avx2 = _side_by_side(text, "14", "side by side, AVX2")
+
+    def avx2_moved(case):
+        return _ratio_moved(avx2, case)
+
+    def avx2_read(case):
+        old, new = avx2[("old", case)], avx2[("main", case)]
+        return f"{min(old):.2f}-{max(old):.2f} and {min(new):.2f}-{max(new):.2f}"
+
+    assert (f"screening f64 rows of 200 went {avx2_moved('200 float64 worst scr')} of the floor (every instance a "
+            f"candidate) and {avx2_moved('200 float64 typical scr')} (most falsified), f32 rows of 200 most falsified "
+            f"{avx2_moved('200 float32 typical scr')}, f64 rows of 100 {avx2_moved('100 float64 worst scr')} and f32 "
+            f"rows of 50 most falsified {avx2_moved('50 float32 typical scr')}; with diagnostics, f64 rows of 200 went "
+            f"{avx2_moved('200 float64 worst diag')} and {avx2_moved('200 float64 typical diag')}.") in page
+    assert (f"f32 rows of 200 most falsified with diagnostics read {avx2_read('200 float32 typical diag').replace(' and ', ' before and ')} "
+            f"after") in page
+    assert (f"f64 rows of 50 most falsified with diagnostics {avx2_read('50 float64 typical diag')}, and f64 rows of "
+            f"16 (the AVX2 short-row kernel, unchanged) {avx2_read('16 float64 worst diag')}.") in page
+    avx2_doc = " ".join((ROOT / "rust" / "src" / "simd" / "avx2.rs").read_text().replace("///", "").split())
+    assert (f"screening f64 rows of 200 sensors went {avx2_moved('200 float64 worst scr')} of the read floor and f32 "
+            f"rows of 50, most falsified, {avx2_moved('50 float32 typical scr')}.") in avx2_doc

@@ -143,8 +143,10 @@ impl SensorBounds {
 
 /// Visiting order for screening: blocks of [`BLOCK`] sensors, the block whose
 /// sensors rejected most instances of a sample first, so that a row stops
-/// after as few vector tests as possible. The order changes speed only:
-/// a row is a candidate iff no sensor rejects it, in whatever order.
+/// after as few tests as possible. The portable kernel follows it; the vector
+/// kernels test every row whole, in column order (from memory the exits cost
+/// more than they save: see `simd::avx512::any_rejecting`). The order changes
+/// speed only: a row is a candidate iff no sensor rejects it, in whatever order.
 #[derive(Debug, Clone)]
 pub struct ScreenPlan {
     /// First sensor of each block, in visiting order.
@@ -165,21 +167,7 @@ impl ScreenPlan {
     pub fn blocks(&self) -> &[usize] {
         &self.blocks
     }
-
-    /// Whether the AVX2 kernel stops at the first rejecting block (the
-    /// AVX-512 kernels test every row whole, see `simd::avx512::any_rejecting`;
-    /// the portable one always stops). Rows of up to [`WHOLE_ROW_BLOCKS`]
-    /// blocks are tested whole, without a branch:
-    /// their cache lines are fetched whole anyway, and when which block
-    /// rejects varies from row to row, each exit mispredicts (measured on
-    /// 2M x 50 rows, 95 % falsified: 8 % slower from memory, 25 % from cache).
-    pub fn exits_early(&self) -> bool {
-        self.blocks.len() > WHOLE_ROW_BLOCKS
-    }
 }
-
-/// Longest row, in blocks, that screening tests whole (64 sensors).
-pub const WHOLE_ROW_BLOCKS: usize = 4;
 
 #[cfg(test)]
 mod tests {
