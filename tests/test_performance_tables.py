@@ -338,6 +338,15 @@ def test_session_14_figures_match_the_recorded_runs():
         v = [x for k, xs in fast.items() if k[3] == mode for x in xs]
         assert f"{words} {min(v):.2f}-{max(v):.2f}" in page
     assert f"session 13's median was {_floor_ms(text, '13'):.1f} ms" in page
+    # The kernels alone against the fast floor: bytes per second of rows of 5 and 10 sensors, one thread.
+    section = text.split("\n=== session 14: cargo bench")[1].split("\n=== session ")[0]
+    gb_s = [int(rate) * int(name.split("_")[2].split("/")[0]) * (4 if "/f32/" in name else 8) / 1000
+            for name, rate in re.findall(r"^(short_rows_\S+) (\d+) M rows/s$", section, re.M)]
+    assert len(gb_s) == 8
+    fast_floor_per_core = 800 / statistics.median(floors["fast"]) / 2
+    assert max(gb_s) < fast_floor_per_core
+    assert (f"at {min(gb_s):.0f}-{max(gb_s):.0f} GB/s, below the fast floor's "
+            f"{fast_floor_per_core:.0f} GB/s a core") in page
     # Side by side through falsify.
     values = _side_by_side(text, "14")
 
