@@ -43,7 +43,7 @@ pub enum Mode {
     /// Visit every sensor of every instance: candidates plus per-sensor counts,
     /// per-instance violation counts and invalid instances.
     Diagnose,
-    /// Stop at the first rejecting sensor: candidates only, fastest.
+    /// Candidates only (no per-sensor counts, no per-instance values): fastest.
     Screen,
 }
 
@@ -88,7 +88,7 @@ impl Falsifier {
         if keep_violations && mode == Mode::Screen {
             return Err(EdmfError::invalid(
                 "keep_violations",
-                "False when diagnostics are off (screening stops at the first violation)",
+                "False when diagnostics are off (screening counts no violations)",
             ));
         }
         Ok(Falsifier {

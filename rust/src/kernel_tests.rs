@@ -54,8 +54,8 @@ fn check_bits<T: Prediction>(
 #[test]
 fn vector_kernels_match_portable_ones() {
     let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
-    // Past 64 sensors screening stops at the first rejecting block (below,
-    // whole rows are tested): both paths, with rows of partial blocks.
+    // Past 64 sensors the portable kernel stops at the first rejecting block
+    // and the vector kernels test whole rows: both, with rows of partial blocks.
     for k in (1..=50usize).chain([63, 64, 65, 80, 97, 130, 300]) {
         // Bounds differ from sensor to sensor, so a lane reading another
         // sensor's bounds shows up.

@@ -43,8 +43,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         The threshold bounds, e.g. from `threshold_bounds`.
     diagnostics : bool, default True
         Visit every sensor of every instance to count which sensors falsify
-        what (default). ``False`` stops at the first violated sensor: fastest,
-        candidates only.
+        what (default). ``False`` gives the candidates only (no per-sensor
+        counts, no per-instance values): fastest.
     keep_violations : bool, optional
         Keep the number of violated sensors of every instance (``n_violated``).
         Default: yes for arrays and iterables, no for files and memory maps.
