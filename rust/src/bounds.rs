@@ -143,10 +143,12 @@ impl SensorBounds {
 
 /// Visiting order for screening: blocks of [`BLOCK`] sensors, the block whose
 /// sensors rejected most instances of a sample first, so that a row stops
-/// after as few tests as possible. The portable kernel follows it; the vector
-/// kernels test every row whole, in column order (from memory the exits cost
-/// more than they save: see `simd::avx512::any_rejecting`). The order changes
-/// speed only: a row is a candidate iff no sensor rejects it, in whatever order.
+/// after as few tests as possible. The portable kernel follows it, as do all
+/// levels for rows that are not contiguous (column-major input); the vector
+/// kernels test contiguous rows whole, in column order (from memory the exits
+/// cost more than they save: see `simd::avx512::any_rejecting`). The order
+/// changes speed only: a row is a candidate iff no sensor rejects it, in
+/// whatever order.
 #[derive(Debug, Clone)]
 pub struct ScreenPlan {
     /// First sensor of each block, in visiting order.

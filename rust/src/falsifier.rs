@@ -240,7 +240,8 @@ impl Falsifier {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
         // Whole rounds of blocks for the pool's threads: with an odd count
         // one thread works alone at the end of every slab (rows of 200
-        // sensors: 21 blocks a slab, 5 % of the time on one of 2 threads).
+        // sensors: 21 blocks a slab, the last one, about 5 % of the work,
+        // on one of 2 threads while the other waits).
         let threads = pool.current_num_threads().max(1);
         let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1).next_multiple_of(threads) * BLOCK_ROWS;
         let mut chunk_tally = Tally::zeros(n_m);

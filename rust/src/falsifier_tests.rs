@@ -129,3 +129,41 @@ fn measurements_must_match_and_be_finite() {
     assert!(Falsifier::new(&[0.0, f64::INFINITY], &thr, Mode::Diagnose, false).is_err());
     assert!(Falsifier::new(&[0.0, 0.0], &thr, Mode::Screen, true).is_err());
 }
+
+/// Long rows over several slabs whose size depends on the pool (whole rounds
+/// of blocks for its threads): the same candidates, counts, violations and
+/// block checksums with 1, 4 and 5 threads, diagnosed or screened, as brute
+/// force and a separate checksum pass give.
+#[test]
+fn slabs_sized_for_the_pool_change_no_result() {
+    let (n, n_m) = (16_000, 700); // slabs of 6, 8 and 10 blocks: 3, 2 and 2 slabs
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    // About 0.1 % of values outside [-1, 1]: half the rows of 700 are candidates.
+    let data: Vec<f32> = (0..n * n_m).map(|_| ((uniform(&mut state) * 2.0 - 1.0) * 1.001) as f32).collect();
+    let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
+    let m = Matrix::row_major(&data, n, n_m).unwrap();
+    // The checksum of every block, summed in the same pass, is the separate pass's.
+    let mut separate = crate::digest::RowDigest::new();
+    separate.update(m, &pool(1)).unwrap();
+    let run = |threads: usize, mode: Mode| {
+        let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, mode == Mode::Diagnose).unwrap();
+        let mut d = crate::digest::RowDigest::new();
+        f.update_digested(m, &pool(threads), &mut || false, &mut d).unwrap();
+        assert_eq!((d.blocks(), d.partial()), (separate.blocks(), separate.partial()), "{threads} threads");
+        f
+    };
+    let expected: Vec<u64> = (0..n)
+        .filter(|&i| data[i * n_m..(i + 1) * n_m].iter().all(|&v| f64::from(v).abs() <= 1.0))
+        .map(|i| i as u64)
+        .collect();
+    assert!(expected.len() > n / 4 && expected.len() < 3 * n / 4);
+    let one = run(1, Mode::Diagnose);
+    assert_eq!(one.candidates_since(0), expected[..]);
+    for threads in [4, 5] {
+        let many = run(threads, Mode::Diagnose);
+        assert_eq!(many.candidates_since(0), expected[..]);
+        assert_eq!(many.tally(), one.tally());
+        assert_eq!(many.violations().unwrap(), one.violations().unwrap());
+        assert_eq!(run(threads, Mode::Screen).candidates_since(0), expected[..]);
+    }
+}

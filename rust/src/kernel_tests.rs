@@ -50,12 +50,13 @@ fn check_bits<T: Prediction>(
 
 /// Vector and portable kernels agree for every row width (lane remainders,
 /// short rows held in registers, partial blocks), with ties on the bounds,
-/// NaN and infinities, and blocks screened out of column order.
+/// NaN and infinities, and the portable kernel's blocks screened out of
+/// column order.
 #[test]
 fn vector_kernels_match_portable_ones() {
     let specials = [0.5, -0.5, 0.25, f64::NAN, f64::INFINITY, -2.0, 0.0, 1.0, -0.49];
-    // Past 64 sensors the portable kernel stops at the first rejecting block
-    // and the vector kernels test whole rows: both, with rows of partial blocks.
+    // The portable kernel stops at the first rejecting block and the vector
+    // kernels test whole rows: both, with rows of partial blocks.
     for k in (1..=50usize).chain([63, 64, 65, 80, 97, 130, 300]) {
         // Bounds differ from sensor to sensor, so a lane reading another
         // sensor's bounds shows up.

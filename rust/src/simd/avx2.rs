@@ -42,7 +42,7 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
         let mut n = _mm256_setzero_si256();
         let mut nan = _mm256_setzero_pd();
         for j in (0..whole).step_by(4) {
-            super::prefetch_spread(row, j, j + 4 >= whole);
+            super::prefetch_spread(row, j, 4, j + 4 >= whole);
             let p = T::load4(row.as_ptr().add(j));
             let rejects = outside4(p, accept, j);
             let bits = _mm256_movemask_pd(rejects);
@@ -77,9 +77,9 @@ fn diagnose_row<T: Prediction>(row: &[T], b: &SensorBounds, counts: &mut [u64]) 
 /// AVX-512 kernel does (see `avx512::any_rejecting` for why). Side by side
 /// through `falsify` with `EDMF_RS_ISA=avx2` (AMD EPYC Zen 4,
 /// `benches/results-short-rows.txt`, section "session 14: side by side,
-/// AVX2"), screening f64 rows of 200 sensors went from 0.74-0.77 to
-/// 1.04-1.04 of the read floor and f32 rows of 50, most falsified, from
-/// 0.66-0.68 to 0.82-0.89.
+/// AVX2"), screening f64 rows of 200 sensors went from 0.76-0.79 to
+/// 1.01-1.05 of the read floor and f32 rows of 50, most falsified, from
+/// 0.68-0.73 to 0.85-0.89.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
@@ -91,7 +91,7 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
     let vector = unsafe {
         let mut any = _mm256_setzero_pd();
         for j in (0..whole).step_by(4) {
-            super::prefetch_spread(row, j, j + 4 >= whole);
+            super::prefetch_spread(row, j, 4, j + 4 >= whole);
             any = _mm256_or_pd(any, outside4(T::load4(row.as_ptr().add(j)), accept, j));
         }
         _mm256_movemask_pd(any) != 0

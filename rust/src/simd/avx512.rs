@@ -147,13 +147,15 @@ fn diagnose_row<T: Prediction>(
 /// `PREFETCH_BYTES` past it.
 ///
 /// Why not stop at the first rejecting block, most rejecting first, and
-/// prefetch the whole row at its start, as this did: from memory that order
-/// reads a row's lines out of sequence and mispredicts each exit, and a
-/// burst of one prefetch per line (25 for f64 rows of 200) stalls the loads
-/// behind it. Side by side through `falsify` (AMD EPYC Zen 4, 2 threads,
+/// prefetch the whole row at its start, as this did: from memory, rows read
+/// whole and in order with the prefetches spread ran faster. The recorded
+/// runs do not take the parts apart; the likely causes are that the plan's
+/// order reads a row's lines out of sequence, that each exit mispredicts, and
+/// that a burst of one prefetch per line (25 for f64 rows of 200) stalls the
+/// loads behind it. Side by side through `falsify` (AMD EPYC Zen 4, 2 threads,
 /// `benches/results-short-rows.txt`, section "session 14: side by side"),
-/// rows of 100 and 200 sensors went from 0.58-0.90 of the read floor to
-/// 0.78-1.15. The price is paid from cache, where stopping early saved work:
+/// with the slabs sized for the pool as well (`falsifier.rs`), rows of 100
+/// and 200 sensors went from 0.58-0.90 of the read floor to 0.78-1.15. The price is paid from cache, where stopping early saved work:
 /// the kernel alone screening f64 rows of 200 with 91 % rejected went from
 /// 58-60 to 41 M rows/s, with every row a candidate from 28-31 to 41-44
 /// (`cargo bench -- long_rows`, `benches/results-long-rows.txt`, "session 14").

@@ -38,16 +38,19 @@ pub fn prefetch_ahead<T>(row: &[T]) {
 }
 
 /// Asks for the line `PREFETCH_BYTES` past value `j` of `row` when `j`
-/// starts a new 64 bytes of the row, and at the `last` step also for the line
-/// past the row's last value: for loops over a row in steps narrower than a
-/// line (AVX2), one prefetch per line read, spread over the row rather than
-/// all at its start (see `avx512::any_rejecting` for why).
+/// starts a new 64 bytes of the row, and at the `last` step (`j + step` is
+/// where the vectors end) also past value `j + step` and the row's last
+/// value, so that no two asked-for addresses of a row are more than 64 bytes
+/// apart and no line is skipped: for loops over a row in steps narrower than
+/// a line (AVX2), the prefetches spread over the row rather than all at its
+/// start (see `avx512::any_rejecting` for why).
 #[inline(always)]
-pub fn prefetch_spread<T>(row: &[T], j: usize, last: bool) {
+pub fn prefetch_spread<T>(row: &[T], j: usize, step: usize, last: bool) {
     if j % (64 / std::mem::size_of::<T>()) == 0 {
         prefetch_line(row.as_ptr().wrapping_add(j));
     }
     if last {
+        prefetch_line(row.as_ptr().wrapping_add(j + step));
         prefetch_line(row.as_ptr().wrapping_add(row.len().saturating_sub(1)));
     }
 }
