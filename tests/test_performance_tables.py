@@ -10,7 +10,8 @@ from collections import defaultdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-ROW = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+[\d.]+\s+([\d.]+)")
+# n_m, dtype, case, mode, floor ms, speed / floor of one method's row of a "final code" run.
+ROW = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+([\d.]+)\s+([\d.]+)")
 
 
 def _final_runs(text: str, session: str) -> list[str]:
@@ -26,7 +27,7 @@ def _floor_ratios(text: str, session: str) -> tuple[int, dict]:
     for run in runs:
         for m in map(ROW.match, run.splitlines()):
             if m:
-                ratios[(m[1], m[2], m[3], m[4])].append(float(m[5]))
+                ratios[(m[1], m[2], m[3], m[4])].append(float(m[6]))
     return len(runs), ratios
 
 
@@ -48,9 +49,11 @@ def test_short_row_table_matches_the_recorded_runs():
         assert row in page and row in readme
 
 
-def _side_by_side(text: str, session: str, title: str = "side by side") -> dict:
-    """Speed / floor per (version, case) of the section "session <session>: <title>"."""
-    section = text.split(f"\n=== session {session}: {title}")[1].split("\n=== ")[0]
+def _side_by_side(text: str, session: str, title: str = "side by side, session start") -> dict:
+    """Speed / floor per (version, case) of the section "session <session>: <title> ..."."""
+    sections = text.split(f"\n=== session {session}: {title} ")
+    assert len(sections) == 2, f"one section 'session {session}: {title}'"
+    section = sections[1].split("\n=== ")[0]
     values = defaultdict(list)
     for line in section.splitlines():
         version, _, cells = line.partition(": ")
@@ -282,7 +285,6 @@ def test_session_13_figures_match_the_recorded_runs():
     assert f"screening f64 rows of 16 went {ratio('16 float64 worst scr')} of the read floor" in kernel
 
 
-_CELL = re.compile(r"\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+([\d.]+)\s+([\d.]+)")
 _FAST_FLOOR_MS = 14.0  # between the two floors the session-14 runs saw (about 11 and about 17 ms)
 
 
@@ -303,7 +305,7 @@ def test_session_14_figures_match_the_recorded_runs():
     fast, slow = defaultdict(list), defaultdict(list)
     floors = {"fast": [], "slow": []}
     for run in runs:
-        for m in map(_CELL.match, run.splitlines()):
+        for m in map(ROW.match, run.splitlines()):
             if m:
                 is_fast = float(m[5]) < _FAST_FLOOR_MS
                 (fast if is_fast else slow)[(m[1], m[2], m[3], m[4])].append(float(m[6]))
