@@ -69,6 +69,43 @@ fn falsify(c: &mut Criterion) {
     group.finish();
 }
 
+/// Short rows (5 and 10 sensors, f64 and f32, worst and typical as in
+/// `short_rows`) through the falsifier with diagnostics, one thread, 8 MB:
+/// slabs, tasks and a kernel call per task on top of the kernel, so its cost
+/// over `short_rows`' "diagnose_bits" is what the falsifier adds.
+/// `cargo bench -- falsify_short`.
+fn falsify_short(c: &mut Criterion) {
+    let p = pool(1);
+    for n_m in [5usize, 10] {
+        let n = (1 << 20) / n_m;
+        let data = values(n * n_m);
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let mut group = c.benchmark_group(format!("falsify_short_{n_m}"));
+        group.throughput(Throughput::Elements(n as u64));
+        for (case, half_width) in [("worst", 10.0), ("typical", 1.5)] {
+            let thr = Thresholds::new(vec![-half_width; n_m], vec![half_width; n_m]).unwrap();
+            let measured = vec![0.0; n_m];
+            group.bench_function(BenchmarkId::new(format!("{case}/diagnose"), "f64"), |b| {
+                let m = Matrix::row_major(&data, n, n_m).unwrap();
+                b.iter(|| {
+                    let mut f = Falsifier::new(&measured, &thr, Mode::Diagnose, false).unwrap();
+                    f.update(black_box(m), &p, &mut || false).unwrap();
+                    f.n_candidates()
+                })
+            });
+            group.bench_function(BenchmarkId::new(format!("{case}/diagnose"), "f32"), |b| {
+                let m = Matrix::row_major(&data32, n, n_m).unwrap();
+                b.iter(|| {
+                    let mut f = Falsifier::new(&measured, &thr, Mode::Diagnose, false).unwrap();
+                    f.update(black_box(m), &p, &mut || false).unwrap();
+                    f.n_candidates()
+                })
+            });
+        }
+        group.finish();
+    }
+}
+
 /// The row kernels alone, one thread, at every instruction-set level this CPU
 /// runs (portable, AVX2, AVX-512), so their ratios show in one run.
 fn isa_levels(c: &mut Criterion) {
@@ -302,6 +339,6 @@ fn thresholds(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
-    targets = falsify, isa_levels, short_rows, long_rows, memory_floor, thresholds
+    targets = falsify, falsify_short, isa_levels, short_rows, long_rows, memory_floor, thresholds
 }
 criterion_main!(benches);

@@ -2,7 +2,7 @@
 //! order and it keeps the candidate model set and the diagnostics, so memory
 //! grows with the number of candidates, not the number of instances.
 //!
-//! Work inside a chunk is split into slabs (about four million predictions). The
+//! Work inside a chunk is split into slabs (32 MB of predictions). The
 //! caller's `stop` check runs between slabs on the calling thread, which is how
 //! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
 //!
@@ -21,11 +21,16 @@ use crate::violations::Violations;
 use rayon::prelude::*;
 use rayon::ThreadPool;
 
-/// Rows one rayon task handles; large enough to amortise scheduling.
+/// Rows of a block, the unit of candidate counts and checksum parts; a rayon
+/// task takes one or more (see [`TASK_BYTES`]).
 const BLOCK_ROWS: usize = 1024;
-/// Predictions per slab between two `stop` checks: a few milliseconds of
-/// work, large enough that handing each slab to the pool costs little.
-const SLAB_ELEMENTS: usize = 1 << 22;
+/// Bytes of predictions per slab between two `stop` checks: a few
+/// milliseconds of work, large enough that handing each slab to the pool
+/// costs little. In bytes, not values, so f32 rows pay that hand-over as
+/// rarely as f64 ones: it took 20-41 µs a slab, against about 0.5 ms to read
+/// 32 MB at 70 GB/s (one thread, AMD EPYC (Zen 4), `cargo bench --
+/// falsify_short` with slabs of 2^18 values; see `docs/performance.md`).
+const SLAB_BYTES: usize = 32 << 20;
 /// Predictions in a slab below which it runs on the calling thread: waking
 /// the pool's threads for it costs more than sharing the work (a hand-over
 /// to a sleeping pool took 0.1-0.2 ms on a 2-core VM, AMD EPYC: `falsify`
@@ -238,12 +243,14 @@ impl Falsifier {
         mut pending: Option<&mut Pending>,
     ) -> Result<Tally> {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
-        // Whole rounds of blocks for the pool's threads: with an odd count
+        // Whole rounds of tasks for the pool's threads: with an odd count
         // one thread works alone at the end of every slab (rows of 200
         // sensors: 21 blocks a slab, the last one, about 5 % of the work,
         // on one of 2 threads while the other waits).
         let threads = pool.current_num_threads().max(1);
-        let slab_rows = (SLAB_ELEMENTS / n_m).div_ceil(BLOCK_ROWS).max(1).next_multiple_of(threads) * BLOCK_ROWS;
+        let task_rows = blocks_per_task::<T>(n_m, pending.is_some()) * BLOCK_ROWS;
+        let slab_values = SLAB_BYTES / std::mem::size_of::<T>();
+        let slab_rows = (slab_values / n_m).div_ceil(task_rows).max(1).next_multiple_of(threads) * task_rows;
         let mut chunk_tally = Tally::zeros(n_m);
         let mut first = 0;
         while first < rows {
@@ -333,27 +340,52 @@ type Summing<'b> = (Option<u64>, &'b mut [Part]);
 /// (`BLOCK_ROWS / 64` words a block).
 type Verdicts<'a> = (usize, &'a mut [u32], &'a mut [usize], &'a mut [u64]);
 
-/// One block's index, counts (empty when not kept), candidate count, candidate words and checksum slot.
-type BlockTask<'a> = (usize, (((&'a mut [u32], &'a mut usize), &'a mut [u64]), &'a mut Part));
+/// One task: its index, its rows' counts (empty when not kept), its blocks'
+/// candidate counts, its candidate words and its blocks' checksum slots.
+type Task<'a> = (usize, (((&'a mut [u32], &'a mut [usize]), &'a mut [u64]), &'a mut [Part]));
 
-/// The block tasks of a slab: `(k, rows of block k, its counts (empty
-/// when not kept), its candidate words, its checksum slot)`.
-fn blocks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part]) -> Vec<BlockTask<'a>> {
+/// Bytes of predictions a task reads, at least: the kernels pay a fixed cost
+/// per call (set-up, and the diagnostics' per-sensor totals), which a block
+/// of 1,024 short rows (20 KB for f32 rows of 5) does not amortise (`cargo
+/// bench -- falsify_short`; see `docs/performance.md`).
+const TASK_BYTES: usize = 128 << 10;
+
+/// Blocks per task for rows of `n_m` values of `T`: one when summing (the
+/// checksum parts are per block), else enough for [`TASK_BYTES`].
+fn blocks_per_task<T>(n_m: usize, summing: bool) -> usize {
+    let block_bytes = BLOCK_ROWS * n_m.max(1) * std::mem::size_of::<T>();
+    if summing {
+        1
+    } else {
+        TASK_BYTES.div_ceil(block_bytes).clamp(1, 64)
+    }
+}
+
+/// The tasks of a slab, `group` blocks each (see [`Task`]).
+fn tasks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part], group: usize) -> Vec<Task<'a>> {
     let (rows, out, counts, words) = verdicts;
-    // Counts, when kept, one block a task like the rest; else empty slices.
-    let n_blocks = rows.div_ceil(BLOCK_ROWS);
+    let task_rows = group * BLOCK_ROWS;
+    // Counts, when kept, one task's rows a task like the rest; else empty slices.
+    let n_tasks = rows.div_ceil(task_rows);
     let mut outs: Vec<&'a mut [u32]> = if out.is_empty() {
         Vec::new()
     } else {
-        out.chunks_mut(BLOCK_ROWS).collect()
+        out.chunks_mut(task_rows).collect()
     };
-    outs.resize_with(n_blocks, Default::default);
+    outs.resize_with(n_tasks, Default::default);
     outs.into_iter()
-        .zip(counts.iter_mut())
-        .zip(words.chunks_mut(BLOCK_ROWS / 64))
-        .zip(slots.iter_mut())
+        .zip(counts.chunks_mut(group))
+        .zip(words.chunks_mut(task_rows / 64))
+        .zip(slots.chunks_mut(group))
         .enumerate()
         .collect()
+}
+
+/// Each block's candidate count from its words.
+fn count_blocks(counts: &mut [usize], words: &[u64]) {
+    for (count, w) in counts.iter_mut().zip(words.chunks(BLOCK_ROWS / 64)) {
+        *count = count_bits(w);
+    }
 }
 
 /// Runs in the caller's pool (on this thread when `serial`); each block's
@@ -368,32 +400,33 @@ fn diagnose_parallel<T: Prediction + Value>(
 ) -> Tally {
     let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let task = |(mut t, mut buf): (Tally, Vec<T>), (k, (((o, count), w), slot)): BlockTask<'_>| {
-        let first = k * BLOCK_ROWS;
-        let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
+    let group = blocks_per_task::<T>(n_m, sum_from.is_some());
+    let task = |(mut t, mut buf): (Tally, Vec<T>), (k, (((o, counts), w), slots)): Task<'_>| {
+        let first = k * group * BLOCK_ROWS;
+        let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
         w.fill(0);
         let keep = !o.is_empty();
         match sum_from {
-            // Each 128 KiB summed right after the kernel read them (in L2).
+            // Each 128 KiB summed right after the kernel read them (in L2); one block a task.
             Some(base) => {
-                *slot = digest::part_after(block, base + first as u64, &mut buf, |r0, r1| {
+                slots[0] = digest::part_after(span, base + first as u64, &mut buf, |r0, r1| {
                     let mut sink = BitSink::new(w, r0);
                     let c = if keep { Some(&mut o[r0..r1]) } else { None };
-                    diagnose_bits_with(isa, block.slice_rows(r0, r1), b, c, &mut sink, &mut t);
+                    diagnose_bits_with(isa, span.slice_rows(r0, r1), b, c, &mut sink, &mut t);
                     sink.finish();
                 })
             }
             None => {
                 let mut sink = BitSink::new(w, 0);
                 let c = if keep { Some(&mut o[..]) } else { None };
-                diagnose_bits_with(isa, block, b, c, &mut sink, &mut t);
+                diagnose_bits_with(isa, span, b, c, &mut sink, &mut t);
                 sink.finish();
             }
         }
-        *count = count_bits(w);
+        count_blocks(counts, w);
         (t, buf)
     };
-    let tasks = blocks(verdicts, slots);
+    let tasks = tasks(verdicts, slots, group);
     if serial {
         return tasks.into_iter().fold((Tally::zeros(n_m), Vec::new()), task).0;
     }
@@ -417,28 +450,29 @@ fn screen_parallel<T: Prediction + Value>(
 ) {
     let (isa, rows) = (Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let task = |buf: &mut Vec<T>, (k, (((_, count), w), slot)): BlockTask<'_>| {
-        let first = k * BLOCK_ROWS;
-        let block = m.slice_rows(first, (first + BLOCK_ROWS).min(rows));
+    let group = blocks_per_task::<T>(b.len(), sum_from.is_some());
+    let task = |buf: &mut Vec<T>, (k, (((_, counts), w), slots)): Task<'_>| {
+        let first = k * group * BLOCK_ROWS;
+        let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
         w.fill(0);
         match sum_from {
-            // Each 128 KiB summed right after the kernel read them (in L2).
+            // Each 128 KiB summed right after the kernel read them (in L2); one block a task.
             Some(base) => {
-                *slot = digest::part_after(block, base + first as u64, buf, |r0, r1| {
+                slots[0] = digest::part_after(span, base + first as u64, buf, |r0, r1| {
                     let mut sink = BitSink::new(w, r0);
-                    screen_bits_with(isa, block.slice_rows(r0, r1), b, plan, &mut sink);
+                    screen_bits_with(isa, span.slice_rows(r0, r1), b, plan, &mut sink);
                     sink.finish();
                 })
             }
             None => {
                 let mut sink = BitSink::new(w, 0);
-                screen_bits_with(isa, block, b, plan, &mut sink);
+                screen_bits_with(isa, span, b, plan, &mut sink);
                 sink.finish();
             }
         }
-        *count = count_bits(w);
+        count_blocks(counts, w);
     };
-    let tasks = blocks(verdicts, slots);
+    let tasks = tasks(verdicts, slots, group);
     if serial {
         let mut buf = Vec::new();
         tasks.into_iter().for_each(|t| task(&mut buf, t));

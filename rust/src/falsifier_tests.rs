@@ -53,6 +53,21 @@ fn result_is_independent_of_chunking_threads_and_mode() {
         .collect();
     assert!(!expected.is_empty() && expected.len() < n);
     assert_eq!(a.candidates_since(0), expected[..]);
+    // Chunks of several tasks of several blocks (short rows: one task reads
+    // at least TASK_BYTES), on the pool (25,000 rows) and on this thread
+    // (9,000), after larger chunks: every block counted afresh.
+    assert!(blocks_per_task::<f64>(n_m, false) > 1 && 9_000 * n_m < SERIAL_ELEMENTS);
+    assert!(25_000 * n_m > SERIAL_ELEMENTS);
+    for rows in [9_000, 25_000] {
+        for mode in [Mode::Diagnose, Mode::Screen] {
+            let e = run(&data, n_m, rows, 2, mode);
+            assert_eq!(e.candidates_since(0), expected[..]);
+            assert_eq!(e.n_candidates(), expected.len() as u64);
+        }
+    }
+    for f in [&a, &b, &c, &d] {
+        assert_eq!(f.n_candidates(), expected.len() as u64);
+    }
 }
 
 #[test]
@@ -79,7 +94,7 @@ fn whole_blocks_of_candidates_and_partial_ones_are_collected() {
 
 #[test]
 fn the_learning_slab_is_no_longer_than_a_slab() {
-    // 1024 sensors: a slab is 4096 rows, shorter than LEARN_ROWS; Ctrl-C
+    // 1024 f32 sensors: a slab is 8192 rows, shorter than LEARN_ROWS; Ctrl-C
     // must be polled as often while the screening order is learned.
     let (rows, n_m) = (LEARN_ROWS, 1024);
     let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
@@ -94,7 +109,8 @@ fn the_learning_slab_is_no_longer_than_a_slab() {
         })
         .unwrap();
     }
-    assert_eq!(polls, [rows * n_m / SLAB_ELEMENTS; 2]);
+    assert_eq!(polls, [rows * n_m * 4 / SLAB_BYTES; 2]);
+    assert_eq!(polls, [2; 2]);
 }
 
 #[test]
@@ -107,7 +123,7 @@ fn wrong_width_is_an_error_and_interruption_leaves_no_trace() {
         .update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false)
         .is_err());
     // Stopped after the first slab of the chunk: its candidates go too.
-    let rows = SLAB_ELEMENTS; // two slabs of two sensors
+    let rows = SLAB_BYTES / 8; // two slabs of two f64 sensors
     let data = vec![0.0; 2 * rows];
     let m = Matrix::row_major(&data, rows, 2).unwrap();
     let mut asked = 0;

@@ -398,6 +398,37 @@ fn infinities_that_cancel_are_not_nan() {
     }
 }
 
+/// The periodic kernel counts rejections and "falsified only by" per bit of
+/// a period in byte lanes, moved to wide totals every 255 periods: one call
+/// over more periods than that, in which one sensor rejects every row (alone
+/// in most), gives the portable kernel's tally at every level.
+#[test]
+fn periodic_byte_counts_survive_flushes() {
+    for k in [3usize, 5, 10, 12] {
+        // 1,000 periods of every period length these widths take.
+        let rows = 16_000 - 16_000 % (16 * k) + 7;
+        let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let data: Vec<f64> = (0..rows * k)
+            .map(|i| match i % k {
+                0 => 2.0,
+                _ => (2.1 * crate::testing::uniform(&mut state) - 1.05) * if (i / k) % 3 == 0 { 1.0 } else { 0.5 },
+            })
+            .collect();
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        assert_eq!(tw.per_sensor[0], rows as u64);
+        assert!(tw.only_by[0] > 2 * rows as u64 / 3 - 1 && tw.only_by[0] < rows as u64);
+        for isa in Isa::available() {
+            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 byte counts, {k} sensors"));
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 byte counts, {k} sensors"));
+        }
+    }
+}
+
 /// Long rows keep their per-sensor counts in narrow lanes between flushes
 /// (every 65,536 rows), and take the verdict first after candidates: a call
 /// over more rows than that, starting with a run of candidates, with counts

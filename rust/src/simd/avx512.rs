@@ -195,7 +195,8 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
 fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Periodic<T>, &'a [T], usize)> {
     let data = m.packed_rows()?;
     T::period(b).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
-    if !std::arch::is_x86_feature_detected!("bmi2") {
+    // BMI2 for the rows' verdicts, AVX-512BW for the diagnostics' byte counts.
+    if !std::arch::is_x86_feature_detected!("bmi2") || !std::arch::is_x86_feature_detected!("avx512bw") {
         return None;
     }
     // SAFETY: AVX-512F is enabled; `period` accepted the width.

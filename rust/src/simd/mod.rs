@@ -8,6 +8,7 @@
 pub mod avx2;
 pub mod avx512;
 pub mod bit_counts;
+mod bit_string;
 pub mod checksum;
 pub mod medium;
 pub mod periodic;

@@ -15,22 +15,32 @@
 //! - Screening: a row is rejected iff its field has a bit set, for all `R`
 //!   rows at once by a carry trick (add the field's low bits to themselves:
 //!   the carry reaches the field's top bit iff one of them is set).
-//! - Diagnostics: the field's popcount is the row's violation count; the
-//!   per-sensor counts come from masked adds of the `P` comparison masks as
-//!   they leave the comparison (values inside, per lane: lane `l` of vector
-//!   `v` is sensor `(v*W + l) % k`; rejections are the periods minus these),
-//!   "falsified only by" from masked adds of the fields with exactly one
-//!   bit; NaN lanes are worked out only in the rare periods whose values
-//!   sum to NaN. (Moving each mask to a general register and back, and
-//!   testing every lane for NaN, is what these replaced: `cargo bench --
-//!   short_rows`, "diagnose_bits", section "session 9: cargo bench" of
-//!   `benches/results-short-rows.txt`.)
+//! - Diagnostics: the field's popcount is the row's violation count;
+//!   "falsified only by" comes from the fields with exactly one bit (field
+//!   arithmetic on the string, as screening's carry trick); the per-sensor
+//!   counts of both are counted per bit of the string in byte lanes, one
+//!   masked add per 64 bits (bit `i` is sensor `i % k`); NaN lanes are
+//!   worked out only in the rare periods whose values sum to NaN. Periods
+//!   whose rows are all candidates cost their comparisons only.
+//! - The string is `u64` where a period fits (every f64 period; f32 periods
+//!   of up to four vectors) and rows of 5 and 10 sensors shift their fields
+//!   by constants: `u128` words and run-time shifts took several
+//!   instructions each, per period.
+//!
+//! Why the diagnostics are built this way (kernel alone, `cargo bench --
+//! short_rows`, sections "session 9: cargo bench" and "session 15: cargo
+//! bench" of `benches/results-short-rows.txt`): moving each mask to a
+//! general register and back and testing every lane for NaN was replaced
+//! in session 9; in session 15, counting in `u32` lanes per vector (one
+//! mask-register move and one add per 16 bits, and mask registers spilled),
+//! a `u128` string where a `u64` holds it, field shifts by a run-time
+//! count, and the candidate sink's state stored back after every period.
 //!
 //! Rows after the last whole period (fewer than `R`) go to the caller.
 
+use super::bit_string::{spread, BitTally, Bits};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, SensorBounds, Tally};
-use std::arch::x86_64::*;
 
 const MAX_VECTORS: usize = crate::bounds::MAX_PERIOD_VECTORS;
 
@@ -77,7 +87,7 @@ impl<T: Prediction> Periodic<T> {
     /// # Safety
     /// AVX-512F is available; `p` points to `rows * k` readable values.
     #[inline(always)]
-    unsafe fn period_bits<const P: usize, const NAN: bool>(&self, p: *const T) -> (u128, u128) {
+    unsafe fn period_bits<B: Bits, const P: usize, const NAN: bool>(&self, p: *const T) -> (B, B) {
         let w = T::W512;
         for v in 0..P {
             // One cache line a vector, as far ahead as the row kernels (see
@@ -85,25 +95,20 @@ impl<T: Prediction> Periodic<T> {
             super::prefetch_line(p.add(v * w));
         }
         let full = u32::MAX >> (32 - w);
-        let (mut out, mut nan) = (0u128, 0u128);
-        if NAN && self.period.proper {
-            for v in 0..P {
-                let x = T::load512(full, p.add(v * w));
-                let (ge, le) = T::sides512(x, self.low[v], self.high[v]);
-                out |= ((!(ge & le) & full) as u128) << (v * w);
-                nan |= ((!(ge | le) & full) as u128) << (v * w);
-            }
-            return (out, nan);
-        }
+        let (mut out, mut nan) = ([0u32; P], [0u32; P]);
         for v in 0..P {
             let x = T::load512(full, p.add(v * w));
-            let inside = T::inside512(full, x, self.low[v], self.high[v]);
-            out |= ((!inside & full) as u128) << (v * w);
-            if NAN {
-                nan |= (T::nan512(full, x) as u128) << (v * w);
+            if NAN && self.period.proper {
+                let (ge, le) = T::sides512(x, self.low[v], self.high[v]);
+                (out[v], nan[v]) = (!(ge & le) & full, !(ge | le) & full);
+            } else {
+                out[v] = !T::inside512(full, x, self.low[v], self.high[v]) & full;
+                if NAN {
+                    nan[v] = T::nan512(full, x);
+                }
             }
         }
-        (out, nan)
+        (B::string(&out, w), B::string(&nan, w))
     }
 
     /// One bit per row (bit r: row r) that is set iff the row's field in
@@ -113,21 +118,23 @@ impl<T: Prediction> Periodic<T> {
     /// # Safety
     /// BMI2 is available.
     #[inline(always)]
-    unsafe fn any_per_row(&self, bits: u128) -> (u128, u32) {
-        let tops = (((bits & self.period.low_bits) + self.period.low_bits) | bits) & self.period.top_bits;
-        let (top_lo, top_hi) = (self.period.top_bits as u64, (self.period.top_bits >> 64) as u64);
-        let rows = _pext_u64(tops as u64, top_lo) as u32
-            | (_pext_u64((tops >> 64) as u64, top_hi) as u32).wrapping_shl(top_lo.count_ones());
-        (tops, rows)
+    unsafe fn any_per_row<B: Bits>(&self, bits: B) -> (B, u32) {
+        let (low, top) = (B::pattern(self.period.low_bits), B::pattern(self.period.top_bits));
+        let tops = ((bits & low).add(low) | bits) & top;
+        (tops, tops.gather(top))
     }
 
-    /// Candidate bits of the first `periods * rows` rows of `data`, into `sink`.
+    /// Candidate bits of the first `periods * rows` rows of `data`, into `out`.
     ///
     /// # Safety
     /// AVX-512F and BMI2 are available; `data` holds those rows back to back.
     #[inline]
     #[target_feature(enable = "avx512f,bmi2,popcnt")]
-    pub unsafe fn screen(&self, data: &[T], periods: usize, sink: &mut BitSink) {
+    pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
+        // A local sink: its state stays in registers (behind `&mut`, LLVM
+        // stored it after each push, as the words written might alias it).
+        let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
+        let sink = &mut local;
         match self.period.vectors {
             1 => self.screen_p::<1>(data, periods, sink),
             2 => self.screen_p::<2>(data, periods, sink),
@@ -138,6 +145,7 @@ impl<T: Prediction> Periodic<T> {
             7 => self.screen_p::<7>(data, periods, sink),
             _ => self.screen_p::<8>(data, periods, sink),
         }
+        *out = local;
     }
 
     /// [`Self::screen`] with `P` vectors a period: unrolled, the lane
@@ -145,19 +153,29 @@ impl<T: Prediction> Periodic<T> {
     /// spilled them to the stack).
     #[inline(always)]
     unsafe fn screen_p<const P: usize>(&self, data: &[T], periods: usize, sink: &mut BitSink) {
+        if P * T::W512 <= 64 {
+            self.screen_pb::<u64, P>(data, periods, sink)
+        } else {
+            self.screen_pb::<u128, P>(data, periods, sink)
+        }
+    }
+
+    /// [`Self::screen_p`] with the period's bits in `B`.
+    #[inline(always)]
+    unsafe fn screen_pb<B: Bits, const P: usize>(&self, data: &[T], periods: usize, sink: &mut BitSink) {
         let (k, rows) = (self.k, self.period.rows);
-        assert!(P == self.period.vectors);
+        assert!(P == self.period.vectors && P * T::W512 <= B::BITS);
         assert!(data.len() >= periods * rows * k);
         let all = u32::MAX >> (32 - rows);
         for q in 0..periods {
-            let (bits, _) = self.period_bits::<P, false>(data.as_ptr().add(q * rows * k));
+            let (bits, _) = self.period_bits::<B, P, false>(data.as_ptr().add(q * rows * k));
             let (_, rejected) = self.any_per_row(bits);
             sink.push((!rejected & all) as u64, rows as u32);
         }
     }
 
     /// Candidate bits of the first `periods * rows` rows of `data` into
-    /// `sink`, their diagnostics into `t` and, when `COUNTS`, their
+    /// `out`, their diagnostics into `t` and, when `COUNTS`, their
     /// rejecting-sensor counts into `counts` (one per row).
     ///
     /// Without `COUNTS` there is no per-row work: "rejected by exactly one
@@ -169,30 +187,42 @@ impl<T: Prediction> Periodic<T> {
     /// # Safety
     /// As [`Self::screen`]; `t` has `k` sensors.
     #[inline]
-    #[target_feature(enable = "avx512f,bmi2,popcnt")]
+    #[target_feature(enable = "avx512f,avx512bw,bmi2,popcnt")]
     pub unsafe fn diagnose<const COUNTS: bool>(
         &self,
         data: &[T],
         periods: usize,
         counts: &mut [u32],
-        sink: &mut BitSink,
+        out: &mut BitSink,
         t: &mut Tally,
     ) {
+        // A local sink, as in `screen`.
+        let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
+        let sink = &mut local;
         match self.period.vectors {
-            1 => self.diagnose_p::<1, COUNTS>(data, periods, counts, sink, t),
-            2 => self.diagnose_p::<2, COUNTS>(data, periods, counts, sink, t),
-            3 => self.diagnose_p::<3, COUNTS>(data, periods, counts, sink, t),
-            4 => self.diagnose_p::<4, COUNTS>(data, periods, counts, sink, t),
-            5 => self.diagnose_p::<5, COUNTS>(data, periods, counts, sink, t),
-            6 => self.diagnose_p::<6, COUNTS>(data, periods, counts, sink, t),
-            7 => self.diagnose_p::<7, COUNTS>(data, periods, counts, sink, t),
-            _ => self.diagnose_p::<8, COUNTS>(data, periods, counts, sink, t),
+            1 => self.diagnose_p::<1, 0, COUNTS>(data, periods, counts, sink, t),
+            2 => self.diagnose_p::<2, 0, COUNTS>(data, periods, counts, sink, t),
+            3 => self.diagnose_p::<3, 0, COUNTS>(data, periods, counts, sink, t),
+            4 => self.diagnose_p::<4, 0, COUNTS>(data, periods, counts, sink, t),
+            // Rows of 5 and 10 sensors, the common load tests: field
+            // shifts by a constant (a u128 shift by a run-time count is five
+            // instructions with a branchless fix-up).
+            5 => match self.k {
+                5 => self.diagnose_p::<5, 5, COUNTS>(data, periods, counts, sink, t),
+                10 => self.diagnose_p::<5, 10, COUNTS>(data, periods, counts, sink, t),
+                _ => self.diagnose_p::<5, 0, COUNTS>(data, periods, counts, sink, t),
+            },
+            6 => self.diagnose_p::<6, 0, COUNTS>(data, periods, counts, sink, t),
+            7 => self.diagnose_p::<7, 0, COUNTS>(data, periods, counts, sink, t),
+            _ => self.diagnose_p::<8, 0, COUNTS>(data, periods, counts, sink, t),
         }
+        *out = local;
     }
 
-    /// [`Self::diagnose`] with `P` vectors a period (see `screen_p`).
+    /// [`Self::diagnose`] with `P` vectors a period (see `screen_p`) of rows
+    /// of `K` sensors (0: `self.k`, known at run time).
     #[inline(always)]
-    unsafe fn diagnose_p<const P: usize, const COUNTS: bool>(
+    unsafe fn diagnose_p<const P: usize, const K: usize, const COUNTS: bool>(
         &self,
         data: &[T],
         periods: usize,
@@ -200,33 +230,47 @@ impl<T: Prediction> Periodic<T> {
         sink: &mut BitSink,
         t: &mut Tally,
     ) {
-        let (k, rows, w) = (self.k, self.period.rows, T::W512);
-        assert!(P == self.period.vectors);
+        if P * T::W512 <= 64 {
+            self.diagnose_pb::<u64, P, K, COUNTS>(data, periods, counts, sink, t)
+        } else {
+            self.diagnose_pb::<u128, P, K, COUNTS>(data, periods, counts, sink, t)
+        }
+    }
+
+    /// [`Self::diagnose_p`] with the period's bits in `B`.
+    #[inline(always)]
+    unsafe fn diagnose_pb<B: Bits, const P: usize, const K: usize, const COUNTS: bool>(
+        &self,
+        data: &[T],
+        periods: usize,
+        counts: &mut [u32],
+        sink: &mut BitSink,
+        t: &mut Tally,
+    ) {
+        let w = T::W512;
+        let (k, rows) = if K == 0 { (self.k, self.period.rows) } else { (K, P * w / K) };
+        assert!(P == self.period.vectors && P * w <= B::BITS && k == self.k && rows == self.period.rows);
         assert!(data.len() >= periods * rows * k && t.per_sensor.len() == k);
         assert!(!COUNTS || counts.len() >= periods * rows);
         let field = (1u64 << k) - 1; // k < 64 (`period`)
         let all = u32::MAX >> (32 - rows);
         let full = u32::MAX >> (32 - w);
-        let ones = _mm512_set1_epi32(1);
-        let zero = _mm512_setzero_si512();
-        // Values inside their interval per lane of each of the P vectors,
-        // counted from the comparison masks as they are in the periods with a
-        // rejection (rejections are those periods minus these counts), and
-        // "only by" per 16 values of the bit string.
-        let (mut inside_lane, mut only_lane) = ([zero; P], [zero; P]);
-        let mut attributed = 0usize;
-        let chunks = (P * w).div_ceil(16);
+        // Per bit of the string, the periods that had it set: rejections,
+        // and rejections of rows rejected by that sensor only.
+        let (mut outside, mut only) = (BitTally::new(), BitTally::new());
+        let (mut outside_totals, mut only_totals) = ([0u64; 128], [0u64; 128]);
+        let mut pending = 0u32;
         let mut invalid = 0u64;
         for q in 0..periods {
             let p = data.as_ptr().add(q * rows * k);
-            let (mut bits, mut inside) = (0u128, [0u32; P]);
-            for v in 0..P {
+            let mut rejecting = [0u32; P];
+            for (v, r) in rejecting.iter_mut().enumerate() {
                 super::prefetch_line(p.add(v * w));
                 let x = T::load512(full, p.add(v * w));
-                inside[v] = T::inside512(full, x, self.low[v], self.high[v]);
-                bits |= ((!inside[v] & full) as u128) << (v * w);
+                *r = !T::inside512(full, x, self.low[v], self.high[v]) & full;
             }
-            if bits == 0 {
+            let bits = B::string(&rejecting, w);
+            if bits == B::ZERO {
                 // Every row a candidate (no NaN either: NaN rejects): no diagnostic work.
                 sink.push(all as u64, rows as u32);
                 if COUNTS {
@@ -234,58 +278,43 @@ impl<T: Prediction> Periodic<T> {
                 }
                 continue;
             }
-            attributed += 1;
             // The period's sum is NaN if a value is (or, rarely, if infinities
             // cancel): only then are the NaN lanes worked out.
             let mut sum = T::load512(full, p);
-            for v in 0..P {
-                if v > 0 {
-                    sum = T::add512(sum, T::load512(full, p.add(v * w)));
-                }
-                inside_lane[v] = _mm512_mask_add_epi32(inside_lane[v], inside[v] as __mmask16, inside_lane[v], ones);
+            for v in 1..P {
+                sum = T::add512(sum, T::load512(full, p.add(v * w)));
             }
             let suspect = T::nan512(full, sum) != 0;
             let (nonzero, rejected) = self.any_per_row(bits);
             sink.push((!rejected & all) as u64, rows as u32);
             // Per field f & (f - 1): non-zero iff two bits or more.
-            let (several, _) = self.any_per_row(bits & bits.wrapping_sub(nonzero >> (k - 1)));
+            let (several, _) = self.any_per_row(bits & bits.sub(nonzero >> (k - 1)));
             let one = nonzero & !several;
             // Fields with one bit, as whole fields: their bit is the sensor.
-            let single = bits & ((one - (one >> (k - 1))) | one);
+            let single = bits & (one.sub(one >> (k - 1)) | one);
             if COUNTS {
                 for (r, c) in counts[q * rows..(q + 1) * rows].iter_mut().enumerate() {
-                    *c = ((bits >> (r * k)) as u64 & field).count_ones();
+                    *c = ((bits >> (r * k)).low64() & field).count_ones();
                 }
             }
             if suspect {
                 // Rare: a NaN row is never a candidate, counted once.
-                let (_, nan) = self.period_bits::<P, true>(p);
-                invalid += (0..rows).filter(|r| (nan >> (r * k)) as u64 & field != 0).count() as u64;
+                let (_, nan) = self.period_bits::<B, P, true>(p);
+                invalid += (0..rows).filter(|r| (nan >> (r * k)).low64() & field != 0).count() as u64;
             }
-            for c in 0..chunks {
-                let s = (single >> (16 * c)) as __mmask16;
-                only_lane[c] = _mm512_mask_add_epi32(only_lane[c], s, only_lane[c], ones);
-            }
-        }
-        // Lane l of vector v is sensor (v * w + l) % k; of "only by" counter c, (16 c + l) % k.
-        let mut lanes = [0u32; 16];
-        let mut j = 0;
-        for counter in inside_lane.iter() {
-            _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, *counter);
-            for &n in &lanes[..w] {
-                t.per_sensor[j] += (attributed - n as usize) as u64;
-                j = if j + 1 == k { 0 } else { j + 1 };
+            outside = outside.add(bits);
+            only = only.add(single);
+            pending += 1;
+            if pending == BitTally::MAX {
+                outside = outside.flush(P * w, &mut outside_totals);
+                only = only.flush(P * w, &mut only_totals);
+                pending = 0;
             }
         }
-        j = 0;
-        for (c, counter) in only_lane.iter().enumerate().take(chunks) {
-            _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, *counter);
-            // The last counter of an odd number of f64 vectors has 8 values.
-            for &n in &lanes[..16.min(P * w - 16 * c)] {
-                t.only_by[j] += n as u64;
-                j = if j + 1 == k { 0 } else { j + 1 };
-            }
-        }
+        outside.flush(P * w, &mut outside_totals);
+        only.flush(P * w, &mut only_totals);
+        spread(&outside_totals, P * w, k, &mut t.per_sensor);
+        spread(&only_totals, P * w, k, &mut t.only_by);
         t.invalid += invalid;
     }
 }
