@@ -70,7 +70,8 @@ fn falsify(c: &mut Criterion) {
 }
 
 /// Short rows (5 and 10 sensors, f64 and f32, worst and typical as in
-/// `short_rows`) through the falsifier with diagnostics, one thread, 8 MB:
+/// `short_rows`) through the falsifier with diagnostics, one thread, 8 MB of
+/// f64 or 4 MB of f32:
 /// slabs, tasks and a kernel call per task on top of the kernel, so its cost
 /// over `short_rows`' "diagnose_bits" is what the falsifier adds.
 /// `cargo bench -- falsify_short`.

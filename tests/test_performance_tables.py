@@ -514,3 +514,29 @@ def test_session_15_figures_match_the_recorded_runs():
             f"{moved('10 float32 typical diag')} for f32 rows of 10, {moved('5 float64 typical diag')} for f64 rows "
             f"of 5 and {moved('10 float64 typical diag')} for f64 rows of 10; rows of 50 sensors, whose kernel did "
             f"not change, read {_ratio_moved(values, '50 float64 typical diag')[5:].replace(' to ', ' and ')}.") in page
+
+
+def test_session_15_avx2_short_rows_match_the_recorded_runs():
+    """What the AVX2 kernels read on rows of 5 and 10 sensors (the gap the
+    page names), from the recorded side by side."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+    section = text.split("\n=== session 15: AVX2 short rows")[1].split("\n=== ")[0]
+    values = defaultdict(list)
+    for line in section.splitlines():
+        version, _, cells = line.partition(": ")
+        for cell in cells.split(" | ") if version in ("old", "main") else ():
+            *case, ratio = cell.split()
+            values[(version, " ".join(case))].append(float(ratio))
+
+    def read(case, version="main"):
+        v = values[(version, case)]
+        return f"{min(v):.2f}-{max(v):.2f}"
+
+    assert (f"f32 rows of 5 most falsified read {read('5 float32 typical diag')} of the floor with diagnostics and "
+            f"{read('5 float32 typical scr')} screened, f64 rows of 10 most falsified {read('10 float64 typical diag')} "
+            f"and {read('10 float64 typical scr')}, and f32 rows of 10 with every instance a candidate "
+            f"{read('10 float32 worst diag')} and {read('10 float32 worst scr')}; only f64 rows of 5 screened with "
+            f"every instance a candidate reach it ({read('5 float64 worst scr')}).") in page
+    assert (f"(the session start read {read('5 float32 typical diag', 'old')}, {read('10 float64 typical diag', 'old')} "
+            f"and {read('10 float32 worst diag', 'old')} with diagnostics)") in page

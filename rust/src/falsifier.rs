@@ -248,7 +248,8 @@ impl Falsifier {
         // sensors: 21 blocks a slab, the last one, about 5 % of the work,
         // on one of 2 threads while the other waits).
         let threads = pool.current_num_threads().max(1);
-        let task_rows = blocks_per_task::<T>(n_m, pending.is_some()) * BLOCK_ROWS;
+        let per_task = blocks_per_task::<T>(n_m, pending.is_some());
+        let task_rows = per_task * BLOCK_ROWS;
         let slab_values = SLAB_BYTES / std::mem::size_of::<T>();
         let slab_rows = (slab_values / n_m).div_ceil(task_rows).max(1).next_multiple_of(threads) * task_rows;
         let mut chunk_tally = Tally::zeros(n_m);
@@ -294,12 +295,14 @@ impl Falsifier {
             // One hand-over to the pool per slab: waking it costs more than a
             // slab's scheduling inside it; a small slab stays on this thread.
             let serial = slab_len * n_m < SERIAL_ELEMENTS;
+            // A task for every thread in a short slab (a small chunk, many threads).
+            let group = if serial { per_task } else { per_task.min((n_blocks / threads).max(1)) };
             let run = || match (self.mode, plan) {
                 (Mode::Screen, Some(plan)) => {
-                    screen_parallel(slab, bounds, plan, verdicts, summing, serial);
+                    screen_parallel(slab, bounds, plan, verdicts, (summing, group), serial);
                     None
                 }
-                _ => Some(diagnose_parallel(slab, bounds, verdicts, summing, serial)),
+                _ => Some(diagnose_parallel(slab, bounds, verdicts, (summing, group), serial)),
             };
             let tally = if serial { run() } else { pool.install(run) };
             let found = counts.iter().sum::<usize>() as u64;
@@ -388,19 +391,19 @@ fn count_blocks(counts: &mut [usize], words: &[u64]) {
     }
 }
 
-/// Runs in the caller's pool (on this thread when `serial`); each block's
-/// candidate count into `counts`, and, when summing, the checksum sums of its
-/// rows into its slot.
+/// Runs in the caller's pool (on this thread when `serial`), in tasks of
+/// `group` blocks (one when summing); each block's candidate count into
+/// `counts`, and, when summing, the checksum sums of its rows into its slot.
 fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     verdicts: Verdicts<'_>,
-    summing: Summing<'_>,
+    (summing, group): (Summing<'_>, usize),
     serial: bool,
 ) -> Tally {
     let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let group = blocks_per_task::<T>(n_m, sum_from.is_some());
+    debug_assert!(group == 1 || sum_from.is_none());
     let task = |(mut t, mut buf): (Tally, Vec<T>), (k, (((o, counts), w), slots)): Task<'_>| {
         let first = k * group * BLOCK_ROWS;
         let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
@@ -437,20 +440,18 @@ fn diagnose_parallel<T: Prediction + Value>(
         .reduce(|| Tally::zeros(n_m), Tally::merge)
 }
 
-/// Runs in the caller's pool (on this thread when `serial`); each block's
-/// candidate count into `counts`, and, when summing, the checksum sums of its
-/// rows into its slot.
+/// [`diagnose_parallel`] without diagnostics.
 fn screen_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     plan: &ScreenPlan,
     verdicts: Verdicts<'_>,
-    summing: Summing<'_>,
+    (summing, group): (Summing<'_>, usize),
     serial: bool,
 ) {
     let (isa, rows) = (Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    let group = blocks_per_task::<T>(b.len(), sum_from.is_some());
+    debug_assert!(group == 1 || sum_from.is_none());
     let task = |buf: &mut Vec<T>, (k, (((_, counts), w), slots)): Task<'_>| {
         let first = k * group * BLOCK_ROWS;
         let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));

@@ -63,10 +63,38 @@ fn result_is_independent_of_chunking_threads_and_mode() {
             let e = run(&data, n_m, rows, 2, mode);
             assert_eq!(e.candidates_since(0), expected[..]);
             assert_eq!(e.n_candidates(), expected.len() as u64);
+            if mode == Mode::Diagnose {
+                assert_eq!(e.tally(), a.tally());
+                assert_eq!(e.violations().unwrap(), a.violations().unwrap());
+            }
         }
     }
     for f in [&a, &b, &c, &d] {
         assert_eq!(f.n_candidates(), expected.len() as u64);
+    }
+}
+
+/// A chunk with fewer blocks than a task would take times the pool's
+/// threads is cut into a task per thread: same candidates, tally and
+/// counts as one thread and as brute force.
+#[test]
+fn short_slabs_on_many_threads_give_the_same_result() {
+    let (n, n_m) = (30 * BLOCK_ROWS + 11, 3);
+    assert!(blocks_per_task::<f64>(n_m, false) * 7 > n.div_ceil(BLOCK_ROWS) && n * n_m > SERIAL_ELEMENTS);
+    let data = predictions(n, n_m);
+    let one = run(&data, n_m, n, 1, Mode::Diagnose);
+    let expected: Vec<u64> = (0..n)
+        .filter(|&i| data[i * n_m..(i + 1) * n_m].iter().all(|r| r.abs() <= 1.0))
+        .map(|i| i as u64)
+        .collect();
+    assert_eq!(one.candidates_since(0), expected[..]);
+    for threads in [7, 16] {
+        let many = run(&data, n_m, n, threads, Mode::Diagnose);
+        assert_eq!(many.candidates_since(0), expected[..]);
+        assert_eq!(many.n_candidates(), expected.len() as u64);
+        assert_eq!(many.tally(), one.tally());
+        assert_eq!(many.violations().unwrap(), one.violations().unwrap());
+        assert_eq!(run(&data, n_m, n, threads, Mode::Screen).candidates_since(0), expected[..]);
     }
 }
 

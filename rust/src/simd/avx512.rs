@@ -254,7 +254,7 @@ fn diagnose_bits_pass<T: Prediction>(
     if let Some((kernel, data, whole)) = periodic(m, b) {
         let periods = whole / kernel.rows();
         let rest = m.slice_rows(whole, m.rows());
-        // SAFETY: AVX-512F, POPCNT and BMI2 (checked by `periodic`) are
+        // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
         // enabled; `data` holds the rows back to back.
         let tail = match counts {
             Some(c) => {
@@ -318,7 +318,7 @@ fn diagnose_bits_pass<T: Prediction>(
 #[target_feature(enable = "avx512f,popcnt")]
 pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, sink: &mut BitSink) {
     if let Some((kernel, data, whole)) = periodic(m, b) {
-        // SAFETY: AVX-512F, POPCNT and BMI2 (checked by `periodic`) are
+        // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
         // enabled; `data` holds the rows back to back.
         unsafe { kernel.screen(data, whole / kernel.rows(), sink) };
         let rest = m.slice_rows(whole, m.rows());

@@ -185,7 +185,7 @@ impl<T: Prediction> Periodic<T> {
     /// non-zero fields only (a zero field would borrow from the next).
     ///
     /// # Safety
-    /// As [`Self::screen`]; `t` has `k` sensors.
+    /// As [`Self::screen`], and AVX-512BW is available; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx512f,avx512bw,bmi2,popcnt")]
     pub unsafe fn diagnose<const COUNTS: bool>(
