@@ -8,7 +8,8 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use edmf_core::kernel::{
     diagnose_bits_with, diagnose_with, screen_bits_with, screen_with, BitSink, ScreenPlan, SensorBounds,
 };
-use edmf_core::{shortest_intervals, Falsifier, Isa, Matrix, Mode, Tally, Thresholds};
+use edmf_core::digest::Value;
+use edmf_core::{shortest_intervals, Falsifier, Isa, Matrix, Mode, Prediction, Tally, Thresholds};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -33,6 +34,19 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .unwrap()
 }
 
+/// One falsifier over `m` (no counts per instance kept): its candidate count.
+fn falsify_once<T: Prediction + Value>(
+    m: Matrix<'_, T>,
+    measured: &[f64],
+    thr: &Thresholds,
+    mode: Mode,
+    p: &rayon::ThreadPool,
+) -> u64 {
+    let mut f = Falsifier::new(measured, thr, mode, false).unwrap();
+    f.update(black_box(m), p, &mut || false).unwrap();
+    f.n_candidates()
+}
+
 fn falsify(c: &mut Criterion) {
     let (n, n_m) = (200_000, 50);
     let data = values(n * n_m);
@@ -48,21 +62,13 @@ fn falsify(c: &mut Criterion) {
                 let id = BenchmarkId::new(format!("{case}/{name}/f64"), threads);
                 group.bench_function(id, |b| {
                     let m = Matrix::row_major(&data, n, n_m).unwrap();
-                    b.iter(|| {
-                        let mut f = Falsifier::new(&measured, &thr, mode, false).unwrap();
-                        f.update(black_box(m), &p, &mut || false).unwrap();
-                        f.n_candidates()
-                    })
+                    b.iter(|| falsify_once(m, &measured, &thr, mode, &p))
                 });
             }
             let id = BenchmarkId::new(format!("{case}/diagnose/f32"), threads);
             group.bench_function(id, |b| {
                 let m = Matrix::row_major(&data32, n, n_m).unwrap();
-                b.iter(|| {
-                    let mut f = Falsifier::new(&measured, &thr, Mode::Diagnose, false).unwrap();
-                    f.update(black_box(m), &p, &mut || false).unwrap();
-                    f.n_candidates()
-                })
+                b.iter(|| falsify_once(m, &measured, &thr, Mode::Diagnose, &p))
             });
         }
     }
@@ -88,19 +94,11 @@ fn falsify_short(c: &mut Criterion) {
             let measured = vec![0.0; n_m];
             group.bench_function(BenchmarkId::new(format!("{case}/diagnose"), "f64"), |b| {
                 let m = Matrix::row_major(&data, n, n_m).unwrap();
-                b.iter(|| {
-                    let mut f = Falsifier::new(&measured, &thr, Mode::Diagnose, false).unwrap();
-                    f.update(black_box(m), &p, &mut || false).unwrap();
-                    f.n_candidates()
-                })
+                b.iter(|| falsify_once(m, &measured, &thr, Mode::Diagnose, &p))
             });
             group.bench_function(BenchmarkId::new(format!("{case}/diagnose"), "f32"), |b| {
                 let m = Matrix::row_major(&data32, n, n_m).unwrap();
-                b.iter(|| {
-                    let mut f = Falsifier::new(&measured, &thr, Mode::Diagnose, false).unwrap();
-                    f.update(black_box(m), &p, &mut || false).unwrap();
-                    f.n_candidates()
-                })
+                b.iter(|| falsify_once(m, &measured, &thr, Mode::Diagnose, &p))
             });
         }
         group.finish();

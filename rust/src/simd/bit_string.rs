@@ -48,29 +48,36 @@ pub(super) trait Bits:
     }
 }
 
+/// What `u64` and `u128` strings do alike: their own wrapping arithmetic.
+macro_rules! integer_bits {
+    ($t:ty) => {
+        const BITS: usize = <$t>::BITS as usize;
+        const ZERO: Self = 0;
+        #[inline(always)]
+        fn mask(m: u32) -> Self {
+            m.into()
+        }
+        #[inline(always)]
+        fn pattern(x: u128) -> Self {
+            x as $t
+        }
+        #[inline(always)]
+        fn add(self, o: Self) -> Self {
+            self.wrapping_add(o)
+        }
+        #[inline(always)]
+        fn sub(self, o: Self) -> Self {
+            self.wrapping_sub(o)
+        }
+        #[inline(always)]
+        fn low64(self) -> u64 {
+            self as u64
+        }
+    };
+}
+
 impl Bits for u64 {
-    const BITS: usize = 64;
-    const ZERO: Self = 0;
-    #[inline(always)]
-    fn mask(m: u32) -> Self {
-        m as u64
-    }
-    #[inline(always)]
-    fn pattern(x: u128) -> Self {
-        x as u64
-    }
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        self.wrapping_add(o)
-    }
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        self.wrapping_sub(o)
-    }
-    #[inline(always)]
-    fn low64(self) -> u64 {
-        self
-    }
+    integer_bits!(u64);
     #[inline(always)]
     unsafe fn gather(self, at: Self) -> u32 {
         _pext_u64(self, at) as u32
@@ -78,28 +85,7 @@ impl Bits for u64 {
 }
 
 impl Bits for u128 {
-    const BITS: usize = 128;
-    const ZERO: Self = 0;
-    #[inline(always)]
-    fn mask(m: u32) -> Self {
-        m as u128
-    }
-    #[inline(always)]
-    fn pattern(x: u128) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        self.wrapping_add(o)
-    }
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        self.wrapping_sub(o)
-    }
-    #[inline(always)]
-    fn low64(self) -> u64 {
-        self as u64
-    }
+    integer_bits!(u128);
     #[inline(always)]
     unsafe fn gather(self, at: Self) -> u32 {
         let (lo, hi) = (at as u64, (at >> 64) as u64);
