@@ -152,11 +152,32 @@ fn diagnose_bits_once(
     t.invalid
 }
 
+/// One pass of screening into candidate bits over `m` (f64) or `m32` (f32),
+/// as `falsify` screens.
+fn screen_bits_once(
+    isa: Isa,
+    m: Matrix<'_, f64>,
+    m32: Matrix<'_, f32>,
+    is32: bool,
+    (b, plan): (&SensorBounds, &ScreenPlan),
+    words: &mut [u64],
+) {
+    let mut sink = BitSink::new(words, 0);
+    if is32 {
+        screen_bits_with(isa, black_box(m32), b, plan, &mut sink);
+    } else {
+        screen_bits_with(isa, black_box(m), b, plan, &mut sink);
+    }
+    sink.finish();
+}
+
 /// Short rows (5, 10 and 16 sensors; f64 and f32), the kernels alone on one
 /// thread at every level, worst case (every row a candidate) and typical (a
 /// few per cent candidates): 8 MB of predictions, so the cost per row shows
 /// rather than the memory's. "diagnose" keeps a count per row
-/// (`keep_violations`), "diagnose_bits" does not. `cargo bench -- short_rows`.
+/// (`keep_violations`), "diagnose_bits" does not; "screen_bits" writes
+/// candidate bits as `falsify` does, "screen" one verdict per row.
+/// `cargo bench -- short_rows`.
 fn short_rows(c: &mut Criterion) {
     for n_m in [5usize, 10, 16] {
         let n = (1 << 20) / n_m;
@@ -192,6 +213,11 @@ fn short_rows(c: &mut Criterion) {
                     group.bench_function(id, |bench| {
                         bench.iter(|| diagnose_bits_once(isa, m, m32, is32, &b, &mut words))
                     });
+                    // As `falsify` screens: candidate bits.
+                    let id = BenchmarkId::new(format!("{case}/screen_bits/{dtype}"), format!("{isa:?}"));
+                    group.bench_function(id, |bench| {
+                        bench.iter(|| screen_bits_once(isa, m, m32, is32, (&b, &plan), &mut words))
+                    });
                     let id = BenchmarkId::new(format!("{case}/screen/{dtype}"), format!("{isa:?}"));
                     group.bench_function(id, |bench| {
                         bench.iter(|| {
@@ -210,7 +236,8 @@ fn short_rows(c: &mut Criterion) {
 }
 
 /// Long rows (50, 100 and 200 sensors; f64 and f32) with diagnostics and
-/// screening, the kernel alone on one thread at the widest level: worst case
+/// screening, the kernel alone on one thread at the widest level and at AVX2
+/// (`long_avx2` there, whatever the width): worst case
 /// (every row a candidate: the verdict-first path) and typical (about 1.2 %
 /// of values outside each interval: 45 % of rows of 50 falsified, 70 % of
 /// rows of 100, 91 % of rows of 200; every rejected row attributed), 8 MB
@@ -219,7 +246,11 @@ fn short_rows(c: &mut Criterion) {
 /// in registers), rows of 100 and 200 the long-row one.
 /// `cargo bench -- long_rows`.
 fn long_rows(c: &mut Criterion) {
-    let isa = Isa::detect();
+    // The widest level, and AVX2 (the level of CPUs without AVX-512).
+    let mut levels = vec![Isa::detect()];
+    if Isa::Avx2.supported() && levels[0] != Isa::Avx2 {
+        levels.push(Isa::Avx2);
+    }
     for n_m in [50usize, 100, 200] {
         let n = (1 << 20) / n_m;
         let data = values(n * n_m);
@@ -233,21 +264,14 @@ fn long_rows(c: &mut Criterion) {
                 SensorBounds::new(&vec![0.0; n_m], &vec![-half_width; n_m], &vec![half_width; n_m]).unwrap();
             let m = Matrix::row_major(&data, n, n_m).unwrap();
             let m32 = Matrix::row_major(&data32, n, n_m).unwrap();
-            for (dtype, is32) in [("f64", false), ("f32", true)] {
+            let runs = levels.iter().flat_map(|&i| [(i, ("f64", false)), (i, ("f32", true))]);
+            for (isa, (dtype, is32)) in runs {
                 group.bench_function(BenchmarkId::new(format!("{case}/diagnose/{dtype}"), format!("{isa:?}")), |bench| {
                     bench.iter(|| diagnose_bits_once(isa, m, m32, is32, &b, &mut words))
                 });
                 let plan = ScreenPlan::new(&b, &vec![0; n_m]);
                 group.bench_function(BenchmarkId::new(format!("{case}/screen/{dtype}"), format!("{isa:?}")), |bench| {
-                    bench.iter(|| {
-                        let mut sink = BitSink::new(&mut words, 0);
-                        if is32 {
-                            screen_bits_with(isa, black_box(m32), &b, &plan, &mut sink);
-                        } else {
-                            screen_bits_with(isa, black_box(m), &b, &plan, &mut sink);
-                        }
-                        sink.finish();
-                    })
+                    bench.iter(|| screen_bits_once(isa, m, m32, is32, (&b, &plan), &mut words))
                 });
             }
         }

@@ -30,6 +30,9 @@ pub struct SensorBounds {
     /// 8 and 16 values), worked out once here rather than for every block.
     pub(crate) period64: Option<Period>,
     pub(crate) period32: Option<Period>,
+    /// The same for rows of whole vectors ([`Period::whole_rows`], AVX2).
+    pub(crate) whole64: Option<Period>,
+    pub(crate) whole32: Option<Period>,
 }
 
 /// Rows of `k` sensors stored back to back repeat their sensor pattern every
@@ -51,7 +54,9 @@ pub struct Period {
     pub proper: bool,
 }
 
-/// Most vectors in a period (the periodic kernel's registers: two per vector).
+/// Most vectors in a period (the periodic kernel keeps two interval vectors
+/// per vector of the period: 16 registers at AVX-512, 32 at AVX2, which has 16
+/// and so reloads some of them from the stack).
 pub const MAX_PERIOD_VECTORS: usize = 8;
 
 impl Period {
@@ -75,13 +80,30 @@ impl Period {
         if lcm / w > MAX_PERIOD_VECTORS || lcm > 128 || k >= 64 {
             return None;
         }
-        let (vectors, rows) = (lcm / w, lcm / k);
+        Some(Period::of(k, lcm / w, lcm / k, proper))
+    }
+
+    /// For rows of whole vectors (`k` a multiple of `w`, below 64), a period
+    /// of several rows: as many as [`MAX_PERIOD_VECTORS`] vectors and 128
+    /// verdict bits hold, if two or more (f64 rows of 8, 16, 24 and 32
+    /// sensors, f32 rows of 16, 32 and 48). The AVX2 periodic kernel takes
+    /// these too; AVX-512 tests such rows a whole vector at a time already.
+    pub fn whole_rows(k: usize, w: usize, proper: bool) -> Option<Period> {
+        if k == 0 || !k.is_multiple_of(w) || k >= 64 {
+            return None;
+        }
+        let rows = (MAX_PERIOD_VECTORS / (k / w)).min(128 / k);
+        (rows >= 2).then(|| Period::of(k, rows * k / w, rows, proper))
+    }
+
+    /// `rows` rows of `k` sensors in `vectors` vectors.
+    fn of(k: usize, vectors: usize, rows: usize, proper: bool) -> Period {
         let (mut low_bits, mut top_bits) = (0u128, 0u128);
         for r in 0..rows {
             low_bits |= ((1u128 << (k - 1)) - 1) << (r * k);
             top_bits |= 1u128 << (r * k + k - 1);
         }
-        Some(Period { vectors, rows, low_bits, top_bits, proper })
+        Period { vectors, rows, low_bits, top_bits, proper }
     }
 }
 
@@ -122,6 +144,8 @@ impl SensorBounds {
         Ok(SensorBounds {
             period64: Period::new(n, 8, proper64),
             period32: Period::new(n, 16, proper32),
+            whole64: Period::whole_rows(n, 8, proper64),
+            whole32: Period::whole_rows(n, 16, proper32),
             cycle64,
             cycle32,
             measured: measured.to_vec(),

@@ -30,6 +30,8 @@ pub trait Prediction: Copy + Send + Sync + 'static + Lanes {
     fn cycled(b: &SensorBounds) -> &[Vec<Self>; 2];
     /// The periodic kernel's pattern for rows of this type, if it takes them.
     fn period(b: &SensorBounds) -> Option<Period>;
+    /// The same for rows of whole vectors (see [`Period::whole_rows`]).
+    fn whole_period(b: &SensorBounds) -> Option<Period>;
 }
 
 impl Prediction for f64 {
@@ -49,6 +51,10 @@ impl Prediction for f64 {
     fn period(b: &SensorBounds) -> Option<Period> {
         b.period64
     }
+    #[inline(always)]
+    fn whole_period(b: &SensorBounds) -> Option<Period> {
+        b.whole64
+    }
 }
 
 impl Prediction for f32 {
@@ -67,6 +73,10 @@ impl Prediction for f32 {
     #[inline(always)]
     fn period(b: &SensorBounds) -> Option<Period> {
         b.period32
+    }
+    #[inline(always)]
+    fn whole_period(b: &SensorBounds) -> Option<Period> {
+        b.whole32
     }
 }
 
@@ -373,8 +383,9 @@ pub(crate) fn via_counts(
 
 /// Appends one candidate bit per row of `m` to `sink` (as [`diagnose_with`]
 /// gives them), writes the rows' rejecting-sensor counts to `counts` only
-/// if given, and adds the per-sensor counts to `tally`. The AVX-512 short-row
-/// kernels write the bits straight from their masks.
+/// if given, and adds the per-sensor counts to `tally`. The short-row
+/// kernels (periodic at both vector levels, the others at AVX-512) write the
+/// bits straight from their masks.
 ///
 /// # Panics
 /// As [`diagnose_with`] (`counts`, if given, has one value per row).
@@ -394,6 +405,10 @@ pub fn diagnose_bits_with<T: Prediction>(
         // SAFETY: the CPU runs the level (checked by `supported`).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::diagnose_bits(m, b, counts, sink, tally) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if isa.supported() => unsafe {
+            crate::simd::avx2::diagnose_bits(m, b, counts, sink, tally)
+        },
         _ => via_counts(m.rows(), counts, sink, |r0, r1, out| {
             diagnose_with(isa, m.slice_rows(r0, r1), b, out, tally)
         }),
@@ -416,6 +431,8 @@ pub fn screen_bits_with<T: Prediction>(
         // SAFETY: the CPU runs the level (checked by `supported`).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 if isa.supported() => unsafe { crate::simd::avx512::screen_bits(m, b, plan, sink) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if isa.supported() => unsafe { crate::simd::avx2::screen_bits(m, b, plan, sink) },
         _ => via_counts(m.rows(), None, sink, |r0, r1, out| {
             screen_with(isa, m.slice_rows(r0, r1), b, plan, out)
         }),

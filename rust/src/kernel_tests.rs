@@ -404,8 +404,9 @@ fn infinities_that_cancel_are_not_nan() {
 /// in most), gives the portable kernel's tally at every level.
 #[test]
 fn periodic_byte_counts_survive_flushes() {
-    for k in [3usize, 5, 10, 12] {
-        // 1,000 periods of every period length these widths take.
+    // 8, 16, 24, 32 and 48: rows of whole vectors (periods of several rows at AVX2).
+    for k in [3usize, 5, 8, 10, 12, 16, 24, 32, 48] {
+        // 1,000 periods or more of every period length these widths take.
         let rows = 16_000 - 16_000 % (16 * k) + 7;
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let mut state = 0x2545_F491_4F6C_DD1Du64;
@@ -430,12 +431,19 @@ fn periodic_byte_counts_survive_flushes() {
 }
 
 /// Long rows keep their per-sensor counts in narrow lanes between flushes
-/// (every 65,536 rows), and take the verdict first after candidates: a call
-/// over more rows than that, starting with a run of candidates, with counts
-/// kept and without, gives the portable kernel's tally and counts.
+/// (AVX-512: u32 lanes every 65,536 rows; AVX2: byte lanes every 255 rows,
+/// in registers up to 64 sensors), and take the verdict first after
+/// candidates: calls over more rows than that, with runs of candidates
+/// between rejected rows, with counts kept and without, give the portable
+/// kernel's tally and counts.
 #[test]
 fn long_row_counts_survive_flushes() {
-    let (k, rows) = (65usize, 70_000usize);
+    for (k, rows) in [(65usize, 70_000usize), (33, 3_000), (50, 3_000), (130, 3_000)] {
+        long_row_counts_survive_flushes_of(k, rows);
+    }
+}
+
+fn long_row_counts_survive_flushes_of(k: usize, rows: usize) {
     let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     // Runs of ten candidates (the verdict-first path) every fifty rows, the
@@ -450,10 +458,10 @@ fn long_row_counts_survive_flushes() {
         let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
         diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
         assert!(tw.per_sensor.iter().all(|&c| c > 0) && want.iter().any(|&n| n == 0));
-        check_bits(isa, m, &b, &plan, &want, &tw, "f64, past a flush");
+        check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 rows of {k}, past a flush"));
         let mut tw = Tally::zeros(k);
         diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
-        check_bits(isa, m32, &b, &plan, &want, &tw, "f32, past a flush");
+        check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 rows of {k}, past a flush"));
     }
 }
 

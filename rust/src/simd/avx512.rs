@@ -3,7 +3,7 @@
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
 use super::medium;
-use super::periodic::Periodic;
+use super::periodic::{Avx512Vectors, Periodic};
 use super::short::{takes, ShortRows};
 use crate::candidates::BitSink;
 use crate::kernel::{diagnose_impl, screen_impl, via_counts, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
@@ -192,7 +192,10 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
 /// stored back to back), their values and the kernel; the rest of `m` after them.
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Periodic<T>, &'a [T], usize)> {
+fn periodic<'a, T: Prediction>(
+    m: Matrix<'a, T>,
+    b: &SensorBounds,
+) -> Option<(Periodic<T, Avx512Vectors>, &'a [T], usize)> {
     let data = m.packed_rows()?;
     T::period(b).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
     // BMI2 for the rows' verdicts, AVX-512BW for the diagnostics' byte counts.
@@ -200,7 +203,7 @@ fn periodic<'a, T: Prediction>(m: Matrix<'a, T>, b: &SensorBounds) -> Option<(Pe
         return None;
     }
     // SAFETY: AVX-512F is enabled; `period` accepted the width.
-    let kernel = unsafe { Periodic::<T>::new(b) };
+    let kernel = unsafe { Periodic::<T, Avx512Vectors>::new(b) };
     let whole = m.rows() - m.rows() % kernel.rows();
     Some((kernel, data, whole))
 }
@@ -252,21 +255,11 @@ fn diagnose_bits_pass<T: Prediction>(
     t: &mut Tally,
 ) {
     if let Some((kernel, data, whole)) = periodic(m, b) {
-        let periods = whole / kernel.rows();
         let rest = m.slice_rows(whole, m.rows());
+        let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
         // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
         // enabled; `data` holds the rows back to back.
-        let tail = match counts {
-            Some(c) => {
-                let (head, tail) = c.split_at_mut(whole);
-                unsafe { kernel.diagnose::<true>(data, periods, head, sink, t) };
-                Some(tail)
-            }
-            None => {
-                unsafe { kernel.diagnose::<false>(data, periods, &mut [], sink, t) };
-                None
-            }
-        };
+        unsafe { kernel.diagnose(data, whole / kernel.rows(), head, sink, t) };
         if rest.rows() > 0 {
             // SAFETY: as below (the rest is packed rows too).
             unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };

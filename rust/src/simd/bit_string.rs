@@ -7,7 +7,7 @@ use std::arch::x86_64::*;
 /// A period's verdict bits: `u64` when they fit (every f64 period, f32
 /// periods of up to four vectors), else `u128`, whose shifts, adds and
 /// two `pext` cost several instructions each in the per-period work.
-pub(super) trait Bits:
+pub trait Bits:
     Copy
     + PartialEq
     + std::ops::BitOr<Output = Self>
@@ -93,58 +93,82 @@ impl Bits for u128 {
     }
 }
 
-/// How many periods had each bit of their string set: one byte lane a bit,
-/// counted by one masked add per 64 bits (AVX-512BW), and added to `u64`
-/// totals before a byte can overflow. (Counting per sensor lane in `u32`
-/// lanes took one mask-register move and one add per 16 bits, plus a
-/// mask-register spill per vector: the scarce resource on Zen 4.)
-#[derive(Clone, Copy)]
-pub(super) struct BitTally {
-    lo: __m512i,
-    hi: __m512i,
-}
-
-impl BitTally {
+/// How many periods had each bit of their string set, one byte lane a bit
+/// (bit `i` in byte `i`), added to `u64` totals before a byte can overflow.
+pub trait BitCounts: Copy {
     /// Periods a byte counts before [`Self::flush`].
-    pub(super) const MAX: u32 = u8::MAX as u32;
+    const MAX: u32 = u8::MAX as u32;
 
-    #[inline(always)]
-    pub(super) unsafe fn new() -> Self {
-        BitTally { lo: _mm512_setzero_si512(), hi: _mm512_setzero_si512() }
-    }
+    /// # Safety
+    /// The level's features are enabled.
+    unsafe fn new() -> Self;
 
-    /// Counts the set bits of `x`.
+    /// Counts the set bits of `x`, of which only the first `n` can be set.
     ///
     /// # Safety
-    /// AVX-512BW is available.
-    #[inline(always)]
-    pub(super) unsafe fn add<B: Bits>(self, x: B) -> Self {
-        let one = _mm512_set1_epi8(1);
-        let lo = _mm512_mask_add_epi8(self.lo, x.low64(), self.lo, one);
-        let hi = if B::BITS > 64 { _mm512_mask_add_epi8(self.hi, (x >> 64).low64(), self.hi, one) } else { self.hi };
-        BitTally { lo, hi }
-    }
+    /// The level's features are enabled.
+    unsafe fn add<B: Bits>(self, x: B, n: usize) -> Self;
+
+    /// The bytes, bit `i`'s count in byte `i`.
+    ///
+    /// # Safety
+    /// The level's features are enabled.
+    unsafe fn bytes(self) -> [u8; 128];
 
     /// Adds the byte counts of the first `n` bits to `totals` and starts
     /// again from zero.
     ///
     /// # Safety
-    /// AVX-512F is available.
+    /// The level's features are enabled.
     #[inline(always)]
-    pub(super) unsafe fn flush(self, n: usize, totals: &mut [u64; 128]) -> Self {
-        let mut b = [0u8; 128];
-        _mm512_storeu_si512(b.as_mut_ptr() as *mut __m512i, self.lo);
-        _mm512_storeu_si512(b.as_mut_ptr().add(64) as *mut __m512i, self.hi);
-        for (t, &c) in totals[..n].iter_mut().zip(&b) {
+    unsafe fn flush(self, n: usize, totals: &mut [u64; 128]) -> Self {
+        for (t, &c) in totals[..n].iter_mut().zip(&self.bytes()) {
             *t += c as u64;
         }
         Self::new()
     }
 }
 
+/// [`BitCounts`] in AVX-512 registers: one masked add per 64 bits
+/// (AVX-512BW). (Counting per sensor lane in `u32` lanes took one
+/// mask-register move and one add per 16 bits, plus a mask-register spill
+/// per vector: the scarce resource on Zen 4.)
+#[derive(Clone, Copy)]
+pub struct BitTally {
+    lo: __m512i,
+    hi: __m512i,
+}
+
+impl BitCounts for BitTally {
+    #[inline(always)]
+    unsafe fn new() -> Self {
+        BitTally { lo: _mm512_setzero_si512(), hi: _mm512_setzero_si512() }
+    }
+
+    #[inline(always)]
+    unsafe fn add<B: Bits>(self, x: B, n: usize) -> Self {
+        let one = _mm512_set1_epi8(1);
+        let lo = _mm512_mask_add_epi8(self.lo, x.low64(), self.lo, one);
+        let hi = if n > 64 {
+            _mm512_mask_add_epi8(self.hi, (x >> 64).low64(), self.hi, one)
+        } else {
+            self.hi
+        };
+        BitTally { lo, hi }
+    }
+
+    #[inline(always)]
+    unsafe fn bytes(self) -> [u8; 128] {
+        let mut b = [0u8; 128];
+        _mm512_storeu_si512(b.as_mut_ptr() as *mut __m512i, self.lo);
+        _mm512_storeu_si512(b.as_mut_ptr().add(64) as *mut __m512i, self.hi);
+        b
+    }
+}
+
 /// Adds the total of bit `i < n` to `out[i % k]` (bit `i` of a period's
 /// string is sensor `i % k`).
-pub(super) fn spread(totals: &[u64; 128], n: usize, k: usize, out: &mut [u64]) {
+pub fn spread(totals: &[u64; 128], n: usize, k: usize, out: &mut [u64]) {
     let mut j = 0;
     for &c in &totals[..n] {
         out[j] += c;

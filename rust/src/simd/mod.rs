@@ -10,8 +10,10 @@ pub mod avx512;
 pub mod bit_counts;
 mod bit_string;
 pub mod checksum;
+pub mod long_avx2;
 pub mod medium;
 pub mod periodic;
+pub mod periodic_avx2;
 pub mod row_batches;
 pub mod short;
 pub mod short_avx2;
@@ -38,24 +40,6 @@ pub fn prefetch_ahead<T>(row: &[T]) {
     }
 }
 
-/// Asks for the line `PREFETCH_BYTES` past value `j` of `row` when `j`
-/// starts a new 64 bytes of the row, and at the `last` step (`j + step` is
-/// where the vectors end) also past value `j + step` and the row's last
-/// value, so that no two asked-for addresses of a row are more than 64 bytes
-/// apart and no line is skipped: for loops over a row in steps narrower than
-/// a line (AVX2), the prefetches spread over the row rather than all at its
-/// start (see `avx512::any_rejecting` for why).
-#[inline(always)]
-pub fn prefetch_spread<T>(row: &[T], j: usize, step: usize, last: bool) {
-    if j % (64 / std::mem::size_of::<T>()) == 0 {
-        prefetch_line(row.as_ptr().wrapping_add(j));
-    }
-    if last {
-        prefetch_line(row.as_ptr().wrapping_add(j + step));
-        prefetch_line(row.as_ptr().wrapping_add(row.len().saturating_sub(1)));
-    }
-}
-
 /// Asks for the cache line `PREFETCH_BYTES` past `p` (one call per line
 /// read, for kernels that stream whole vectors rather than rows).
 #[inline(always)]
@@ -64,9 +48,10 @@ pub fn prefetch_line<T>(p: *const T) {
     unsafe { _mm_prefetch::<_MM_HINT_T1>((p as *const i8).wrapping_add(PREFETCH_BYTES)) };
 }
 
-/// A prediction type as vector lanes. The AVX2 kernels widen to f64 and use
-/// the f64 acceptance intervals; the AVX-512 kernels compare in the type
-/// itself, f64 eight to a vector and f32 sixteen.
+/// A prediction type as vector lanes. The AVX2 short-row kernel
+/// (`short_avx2`) widens to f64 and uses the f64 acceptance intervals; the
+/// other kernels compare in the type itself (AVX-512: f64 eight to a vector
+/// and f32 sixteen; AVX2: four and eight).
 pub trait Lanes: Copy {
     /// Four values widened to f64. # Safety: `p` points to four readable values; AVX2 is available.
     unsafe fn load4(p: *const Self) -> __m256d;
@@ -74,6 +59,31 @@ pub trait Lanes: Copy {
     /// same for 32-bit lanes) widened to f64, others 0; lanes left out are
     /// never touched. # Safety: the selected lanes are readable; AVX2 is available.
     unsafe fn maskload4(m64: __m256i, m32: __m128i, p: *const Self) -> __m256d;
+
+    /// A 256-bit vector of this type, compared in the type itself (the AVX2
+    /// periodic kernel, whose intervals are those of the AVX-512 kernels).
+    type V256: Copy;
+    /// # Safety: `p` points to a 256-bit vector's worth of readable values; AVX2 is available.
+    unsafe fn load256(p: *const Self) -> Self::V256;
+    /// Bits of the lanes where `low <= p <= high` (NaN is outside).
+    /// # Safety: AVX2 is available.
+    unsafe fn inside256(p: Self::V256, low: Self::V256, high: Self::V256) -> u32;
+    /// Bits of the lanes where `p < low`, `p > high` or `p` is NaN: the
+    /// complement of `inside256` in two comparisons and an `or`.
+    /// # Safety: AVX2 is available.
+    unsafe fn outside256(p: Self::V256, low: Self::V256, high: Self::V256) -> u32;
+    /// Bits of the lanes where `p >= low` and where `p <= high` (see `sides512`).
+    /// # Safety: AVX2 is available.
+    unsafe fn sides256(p: Self::V256, low: Self::V256, high: Self::V256) -> (u32, u32);
+    /// The first `n` lanes from `p` (fewer than a vector's), others 0; lanes
+    /// left out are never touched. # Safety: those lanes are readable; AVX2 is available.
+    unsafe fn head256(n: usize, p: *const Self) -> Self::V256;
+    /// Bits of the lanes where `p` is NaN. # Safety: AVX2 is available.
+    unsafe fn nan256(p: Self::V256) -> u32;
+    /// `a + b`, lane by lane. # Safety: AVX2 is available.
+    unsafe fn add256(a: Self::V256, b: Self::V256) -> Self::V256;
+    /// All lanes 0. # Safety: AVX2 is available.
+    unsafe fn zero256() -> Self::V256;
 
     /// Lanes of an AVX-512 vector.
     const W512: usize;
@@ -112,6 +122,63 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx2")]
     unsafe fn maskload4(m64: __m256i, _: __m128i, p: *const f64) -> __m256d {
         _mm256_maskload_pd(p, m64)
+    }
+
+    type V256 = __m256d;
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load256(p: *const f64) -> __m256d {
+        _mm256_loadu_pd(p)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn inside256(p: __m256d, low: __m256d, high: __m256d) -> u32 {
+        let inside = _mm256_and_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(p, low), _mm256_cmp_pd::<_CMP_LE_OQ>(p, high));
+        _mm256_movemask_pd(inside) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn outside256(p: __m256d, low: __m256d, high: __m256d) -> u32 {
+        let (below, above) = (_mm256_cmp_pd::<_CMP_NGE_UQ>(p, low), _mm256_cmp_pd::<_CMP_NLE_UQ>(p, high));
+        let outside = _mm256_or_pd(below, above);
+        _mm256_movemask_pd(outside) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn sides256(p: __m256d, low: __m256d, high: __m256d) -> (u32, u32) {
+        (
+            _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(p, low)) as u32,
+            _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(p, high)) as u32,
+        )
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn head256(n: usize, p: *const f64) -> __m256d {
+        let lanes = _mm256_cmpgt_epi64(_mm256_set1_epi64x(n as _), _mm256_setr_epi64x(0, 1, 2, 3));
+        _mm256_maskload_pd(p, lanes)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn nan256(p: __m256d) -> u32 {
+        _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(p, p)) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add256(a: __m256d, b: __m256d) -> __m256d {
+        _mm256_add_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn zero256() -> __m256d {
+        _mm256_setzero_pd()
     }
 
     const W512: usize = 8;
@@ -185,6 +252,63 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx2")]
     unsafe fn maskload4(_: __m256i, m32: __m128i, p: *const f32) -> __m256d {
         _mm256_cvtps_pd(_mm_maskload_ps(p, m32))
+    }
+
+    type V256 = __m256;
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load256(p: *const f32) -> __m256 {
+        _mm256_loadu_ps(p)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn inside256(p: __m256, low: __m256, high: __m256) -> u32 {
+        let inside = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(p, low), _mm256_cmp_ps::<_CMP_LE_OQ>(p, high));
+        _mm256_movemask_ps(inside) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn outside256(p: __m256, low: __m256, high: __m256) -> u32 {
+        let (below, above) = (_mm256_cmp_ps::<_CMP_NGE_UQ>(p, low), _mm256_cmp_ps::<_CMP_NLE_UQ>(p, high));
+        let outside = _mm256_or_ps(below, above);
+        _mm256_movemask_ps(outside) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn sides256(p: __m256, low: __m256, high: __m256) -> (u32, u32) {
+        (
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(p, low)) as u32,
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(p, high)) as u32,
+        )
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn head256(n: usize, p: *const f32) -> __m256 {
+        let lanes = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as _), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        _mm256_maskload_ps(p, lanes)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn nan256(p: __m256) -> u32 {
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_UNORD_Q>(p, p)) as u32
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add256(a: __m256, b: __m256) -> __m256 {
+        _mm256_add_ps(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn zero256() -> __m256 {
+        _mm256_setzero_ps()
     }
 
     const W512: usize = 16;

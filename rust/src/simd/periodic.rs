@@ -37,41 +37,131 @@
 //! count, and the candidate sink's state stored back after every period.
 //!
 //! Rows after the last whole period (fewer than `R`) go to the caller.
+//!
+//! The same code runs at two levels ([`Vectors`]): a "vector" of `W` values
+//! is one AVX-512 register, or two AVX2 registers (`periodic_avx2`), so the
+//! period, the intervals' pattern and the verdict string are the same.
 
-use super::bit_string::{spread, BitTally, Bits};
+use super::bit_string::{spread, BitCounts, BitTally, Bits};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, SensorBounds, Tally};
 
 const MAX_VECTORS: usize = crate::bounds::MAX_PERIOD_VECTORS;
 
+/// What the kernel needs of a vector level: loads and comparisons of
+/// `T::W512` values at a time, and per-bit counts of the verdict strings.
+/// Every method is inlined into the level's entry points, which enable its
+/// CPU features.
+pub trait Vectors<T: Prediction> {
+    type V: Copy;
+    type Counts: BitCounts;
+    /// # Safety: `T::W512` values from `p` are readable; the level's features are enabled.
+    unsafe fn load(p: *const T) -> Self::V;
+    /// Bits of the lanes outside `[low, high]` (NaN is outside). # Safety: as `load`.
+    unsafe fn outside(x: Self::V, low: Self::V, high: Self::V) -> u32;
+    /// Bits of the lanes where `x >= low`, and where `x <= high`. # Safety: as `load`.
+    unsafe fn sides(x: Self::V, low: Self::V, high: Self::V) -> (u32, u32);
+    /// Bits of the NaN lanes. # Safety: as `load`.
+    unsafe fn nan(x: Self::V) -> u32;
+    /// `a + b` lane by lane. # Safety: as `load`.
+    unsafe fn add(a: Self::V, b: Self::V) -> Self::V;
+}
+
+/// AVX-512: one register a vector.
+pub struct Avx512Vectors;
+
+impl<T: Prediction> Vectors<T> for Avx512Vectors {
+    type V = T::V512;
+    type Counts = BitTally;
+    #[inline(always)]
+    unsafe fn load(p: *const T) -> T::V512 {
+        T::load512(u32::MAX >> (32 - T::W512), p)
+    }
+    #[inline(always)]
+    unsafe fn outside(x: T::V512, low: T::V512, high: T::V512) -> u32 {
+        let full = u32::MAX >> (32 - T::W512);
+        !T::inside512(full, x, low, high) & full
+    }
+    #[inline(always)]
+    unsafe fn sides(x: T::V512, low: T::V512, high: T::V512) -> (u32, u32) {
+        T::sides512(x, low, high)
+    }
+    #[inline(always)]
+    unsafe fn nan(x: T::V512) -> u32 {
+        T::nan512(u32::MAX >> (32 - T::W512), x)
+    }
+    #[inline(always)]
+    unsafe fn add(a: T::V512, b: T::V512) -> T::V512 {
+        T::add512(a, b)
+    }
+}
+
 /// The acceptance intervals of rows of `k` sensors in their period's pattern.
-pub struct Periodic<T: Prediction> {
-    low: [T::V512; MAX_VECTORS],
-    high: [T::V512; MAX_VECTORS],
+pub struct Periodic<T: Prediction, L: Vectors<T>> {
+    low: [L::V; MAX_VECTORS],
+    high: [L::V; MAX_VECTORS],
     k: usize,
     /// Vectors, rows, field bits and proper intervals (see [`Period`]).
     period: Period,
 }
 
-impl<T: Prediction> Periodic<T> {
-    /// The pattern for `b` (rows of `b.len()` sensors): whole-vector loads of
-    /// the repeated intervals (lane `l` of vector `v` is sensor
-    /// `(v * w + l) % k`) and the period worked out in `SensorBounds`. Built
-    /// once per block of rows, so nothing here scales with the sensors.
+impl<T: Prediction> Periodic<T, Avx512Vectors> {
+    /// See [`Periodic::build`].
     ///
     /// # Safety
     /// AVX-512F is available; `T::period(b)` is `Some`.
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub unsafe fn new(b: &SensorBounds) -> Self {
+        Self::build(b, T::period(b).expect("a period this kernel takes"))
+    }
+
+    /// See [`Periodic::screen_any`].
+    ///
+    /// # Safety
+    /// AVX-512F, BMI2 and POPCNT are available; `data` holds the rows back to back.
+    #[inline]
+    #[target_feature(enable = "avx512f,bmi2,popcnt")]
+    pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
+        self.screen_any(data, periods, out)
+    }
+
+    /// See [`Periodic::diagnose_kept`].
+    ///
+    /// # Safety
+    /// As [`Self::screen`], and AVX-512BW is available; `t` has `k` sensors.
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw,bmi2,popcnt")]
+    pub unsafe fn diagnose(
+        &self,
+        data: &[T],
+        periods: usize,
+        counts: Option<&mut [u32]>,
+        out: &mut BitSink,
+        t: &mut Tally,
+    ) {
+        self.diagnose_kept(data, periods, counts, out, t)
+    }
+}
+
+impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
+    /// The pattern for `b` (rows of `b.len()` sensors): whole-vector loads of
+    /// the repeated intervals (lane `l` of vector `v` is sensor
+    /// `(v * w + l) % k`) and `period`, worked out in `SensorBounds`. Built
+    /// once per block of rows, so nothing here scales with the sensors.
+    ///
+    /// # Safety
+    /// The level's features are enabled; `period` is one of `b`'s for `T`.
+    #[inline(always)]
+    pub(super) unsafe fn build(b: &SensorBounds, period: Period) -> Self {
         let (k, w, cycle) = (b.len(), T::W512, T::cycled(b));
-        let period = T::period(b).expect("a period this kernel takes");
-        let full = u32::MAX >> (32 - w);
+        assert!(period.vectors <= MAX_VECTORS && period.rows * k == period.vectors * w);
         assert!(cycle[0].len() >= MAX_VECTORS * w && cycle[1].len() >= MAX_VECTORS * w);
-        let (mut low, mut high) = ([T::load512(full, cycle[0].as_ptr()); MAX_VECTORS], [T::load512(full, cycle[1].as_ptr()); MAX_VECTORS]);
+        let (mut low, mut high) =
+            ([L::load(cycle[0].as_ptr()); MAX_VECTORS], [L::load(cycle[1].as_ptr()); MAX_VECTORS]);
         for v in 1..period.vectors {
-            low[v] = T::load512(full, cycle[0].as_ptr().add(v * w));
-            high[v] = T::load512(full, cycle[1].as_ptr().add(v * w));
+            low[v] = L::load(cycle[0].as_ptr().add(v * w));
+            high[v] = L::load(cycle[1].as_ptr().add(v * w));
         }
         Periodic { low, high, k, period }
     }
@@ -85,7 +175,7 @@ impl<T: Prediction> Periodic<T> {
     /// per value (bit `v*W + l` for lane `l` of vector `v`).
     ///
     /// # Safety
-    /// AVX-512F is available; `p` points to `rows * k` readable values.
+    /// The level's features are enabled; `p` points to `rows * k` readable values.
     #[inline(always)]
     unsafe fn period_bits<B: Bits, const P: usize, const NAN: bool>(&self, p: *const T) -> (B, B) {
         let w = T::W512;
@@ -97,14 +187,14 @@ impl<T: Prediction> Periodic<T> {
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = ([0u32; P], [0u32; P]);
         for v in 0..P {
-            let x = T::load512(full, p.add(v * w));
+            let x = L::load(p.add(v * w));
             if NAN && self.period.proper {
-                let (ge, le) = T::sides512(x, self.low[v], self.high[v]);
+                let (ge, le) = L::sides(x, self.low[v], self.high[v]);
                 (out[v], nan[v]) = (!(ge & le) & full, !(ge | le) & full);
             } else {
-                out[v] = !T::inside512(full, x, self.low[v], self.high[v]) & full;
+                out[v] = L::outside(x, self.low[v], self.high[v]);
                 if NAN {
-                    nan[v] = T::nan512(full, x);
+                    nan[v] = L::nan(x);
                 }
             }
         }
@@ -127,10 +217,10 @@ impl<T: Prediction> Periodic<T> {
     /// Candidate bits of the first `periods * rows` rows of `data`, into `out`.
     ///
     /// # Safety
-    /// AVX-512F and BMI2 are available; `data` holds those rows back to back.
-    #[inline]
-    #[target_feature(enable = "avx512f,bmi2,popcnt")]
-    pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
+    /// The level's features, BMI2 and POPCNT are enabled; `data` holds those
+    /// rows back to back.
+    #[inline(always)]
+    pub(super) unsafe fn screen_any(&self, data: &[T], periods: usize, out: &mut BitSink) {
         // A local sink: its state stays in registers (behind `&mut`, LLVM
         // stored it after each push, as the words written might alias it).
         let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
@@ -148,7 +238,7 @@ impl<T: Prediction> Periodic<T> {
         *out = local;
     }
 
-    /// [`Self::screen`] with `P` vectors a period: unrolled, the lane
+    /// [`Self::screen_any`] with `P` vectors a period: unrolled, the lane
     /// patterns and the masks in registers (a loop over a run-time count
     /// spilled them to the stack).
     #[inline(always)]
@@ -174,6 +264,25 @@ impl<T: Prediction> Periodic<T> {
         }
     }
 
+    /// [`Self::diagnose_any`], with the rows' counts if `counts` is given.
+    ///
+    /// # Safety
+    /// As [`Self::diagnose_any`].
+    #[inline(always)]
+    pub(super) unsafe fn diagnose_kept(
+        &self,
+        data: &[T],
+        periods: usize,
+        counts: Option<&mut [u32]>,
+        out: &mut BitSink,
+        t: &mut Tally,
+    ) {
+        match counts {
+            Some(c) => self.diagnose_any::<true>(data, periods, c, out, t),
+            None => self.diagnose_any::<false>(data, periods, &mut [], out, t),
+        }
+    }
+
     /// Candidate bits of the first `periods * rows` rows of `data` into
     /// `out`, their diagnostics into `t` and, when `COUNTS`, their
     /// rejecting-sensor counts into `counts` (one per row).
@@ -185,10 +294,9 @@ impl<T: Prediction> Periodic<T> {
     /// non-zero fields only (a zero field would borrow from the next).
     ///
     /// # Safety
-    /// As [`Self::screen`], and AVX-512BW is available; `t` has `k` sensors.
-    #[inline]
-    #[target_feature(enable = "avx512f,avx512bw,bmi2,popcnt")]
-    pub unsafe fn diagnose<const COUNTS: bool>(
+    /// As [`Self::screen_any`]; `t` has `k` sensors.
+    #[inline(always)]
+    unsafe fn diagnose_any<const COUNTS: bool>(
         &self,
         data: &[T],
         periods: usize,
@@ -196,7 +304,7 @@ impl<T: Prediction> Periodic<T> {
         out: &mut BitSink,
         t: &mut Tally,
     ) {
-        // A local sink, as in `screen`.
+        // A local sink, as in `screen_any`.
         let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
         let sink = &mut local;
         match self.period.vectors {
@@ -219,7 +327,7 @@ impl<T: Prediction> Periodic<T> {
         *out = local;
     }
 
-    /// [`Self::diagnose`] with `P` vectors a period (see `screen_p`) of rows
+    /// [`Self::diagnose_any`] with `P` vectors a period (see `screen_p`) of rows
     /// of `K` sensors (0: `self.k`, known at run time).
     #[inline(always)]
     unsafe fn diagnose_p<const P: usize, const K: usize, const COUNTS: bool>(
@@ -254,10 +362,9 @@ impl<T: Prediction> Periodic<T> {
         assert!(!COUNTS || counts.len() >= periods * rows);
         let field = (1u64 << k) - 1; // k < 64 (`period`)
         let all = u32::MAX >> (32 - rows);
-        let full = u32::MAX >> (32 - w);
         // Per bit of the string, the periods that had it set: rejections,
         // and rejections of rows rejected by that sensor only.
-        let (mut outside, mut only) = (BitTally::new(), BitTally::new());
+        let (mut outside, mut only) = (L::Counts::new(), L::Counts::new());
         let (mut outside_totals, mut only_totals) = ([0u64; 128], [0u64; 128]);
         let mut pending = 0u32;
         let mut invalid = 0u64;
@@ -266,8 +373,7 @@ impl<T: Prediction> Periodic<T> {
             let mut rejecting = [0u32; P];
             for (v, r) in rejecting.iter_mut().enumerate() {
                 super::prefetch_line(p.add(v * w));
-                let x = T::load512(full, p.add(v * w));
-                *r = !T::inside512(full, x, self.low[v], self.high[v]) & full;
+                *r = L::outside(L::load(p.add(v * w)), self.low[v], self.high[v]);
             }
             let bits = B::string(&rejecting, w);
             if bits == B::ZERO {
@@ -280,11 +386,11 @@ impl<T: Prediction> Periodic<T> {
             }
             // The period's sum is NaN if a value is (or, rarely, if infinities
             // cancel): only then are the NaN lanes worked out.
-            let mut sum = T::load512(full, p);
+            let mut sum = L::load(p);
             for v in 1..P {
-                sum = T::add512(sum, T::load512(full, p.add(v * w)));
+                sum = L::add(sum, L::load(p.add(v * w)));
             }
-            let suspect = T::nan512(full, sum) != 0;
+            let suspect = L::nan(sum) != 0;
             let (nonzero, rejected) = self.any_per_row(bits);
             sink.push((!rejected & all) as u64, rows as u32);
             // Per field f & (f - 1): non-zero iff two bits or more.
@@ -302,10 +408,10 @@ impl<T: Prediction> Periodic<T> {
                 let (_, nan) = self.period_bits::<B, P, true>(p);
                 invalid += (0..rows).filter(|r| (nan >> (r * k)).low64() & field != 0).count() as u64;
             }
-            outside = outside.add(bits);
-            only = only.add(single);
+            outside = outside.add(bits, P * w);
+            only = only.add(single, P * w);
             pending += 1;
-            if pending == BitTally::MAX {
+            if pending == L::Counts::MAX {
                 outside = outside.flush(P * w, &mut outside_totals);
                 only = only.flush(P * w, &mut only_totals);
                 pending = 0;
@@ -337,6 +443,18 @@ mod tests {
         assert_eq!(period(16, 16), None);
         assert_eq!(period(9, 8), None);
         assert_eq!(period(9, 16), None);
+        // Rows of whole vectors, as many as 8 vectors and 128 bits hold (AVX2 only).
+        let whole = |k, w| Period::whole_rows(k, w, true).map(|p| (p.vectors, p.rows));
+        assert_eq!(whole(16, 8), Some((8, 4)));
+        assert_eq!(whole(8, 8), Some((8, 8)));
+        assert_eq!(whole(24, 8), Some((6, 2)));
+        assert_eq!(whole(32, 8), Some((8, 2)));
+        assert_eq!(whole(16, 16), Some((8, 8)));
+        assert_eq!(whole(32, 16), Some((8, 4)));
+        assert_eq!(whole(48, 16), Some((6, 2))); // 96 bits: a u128 string
+        assert_eq!(whole(40, 8), None); // one row a period
+        assert_eq!(whole(10, 8), None); // not whole vectors: `Period::new`
+        assert_eq!(whole(64, 16), None);
         // Row 0's field of 5 bits: four low bits and the top one; 16 rows fill 80 bits.
         let p = Period::new(5, 16, true).unwrap();
         assert_eq!((p.low_bits & 0x1f, p.top_bits & 0x1f), (0xf, 0x10));

@@ -1,0 +1,210 @@
+//! The periodic kernel (`periodic`) at the AVX2 level: a "vector" of `W`
+//! values is two 256-bit registers (f64 four lanes each, f32 eight, compared
+//! in their own type with the intervals of the AVX-512 kernels), so rows of 5
+//! and 10 sensors are read as a plain stream of whole vectors here too. The
+//! per-bit counts of the diagnostics expand 32 verdict bits at a time into
+//! byte lanes (`vpshufb`, compare, subtract): AVX2 has no masked byte add.
+//!
+//! Why: without it, AVX2 rows of 5-8 sensors took one masked load pair and
+//! the counts per row, and rows of 9-15 the long-row loop with a scalar
+//! tail: f64 rows of 10 with diagnostics ran at 0.17-0.35 of the read floor
+//! (`benches/results-short-rows.txt`, "session 15: AVX2 short rows").
+//!
+//! `pext` (the rows' verdicts) is microcoded on AMD Zen 1 and 2, which have
+//! AVX2 but not AVX-512: there the older kernels run ([`fast_pext`]).
+
+use super::bit_string::{BitCounts, Bits};
+use super::periodic::{Periodic, Vectors};
+use crate::candidates::BitSink;
+use crate::kernel::{Prediction, SensorBounds, Tally};
+use std::arch::x86_64::*;
+
+/// AVX2: two registers a vector, the low half first.
+pub struct Avx2Vectors;
+
+impl<T: Prediction> Vectors<T> for Avx2Vectors {
+    type V = [T::V256; 2];
+    type Counts = ByteTally256;
+    #[inline(always)]
+    unsafe fn load(p: *const T) -> Self::V {
+        [T::load256(p), T::load256(p.add(T::W512 / 2))]
+    }
+    #[inline(always)]
+    unsafe fn outside(x: Self::V, low: Self::V, high: Self::V) -> u32 {
+        let half = T::W512 / 2;
+        let inside = T::inside256(x[0], low[0], high[0]) | T::inside256(x[1], low[1], high[1]) << half;
+        !inside & (u32::MAX >> (32 - T::W512))
+    }
+    #[inline(always)]
+    unsafe fn sides(x: Self::V, low: Self::V, high: Self::V) -> (u32, u32) {
+        let half = T::W512 / 2;
+        let (ge0, le0) = T::sides256(x[0], low[0], high[0]);
+        let (ge1, le1) = T::sides256(x[1], low[1], high[1]);
+        (ge0 | ge1 << half, le0 | le1 << half)
+    }
+    #[inline(always)]
+    unsafe fn nan(x: Self::V) -> u32 {
+        T::nan256(x[0]) | T::nan256(x[1]) << (T::W512 / 2)
+    }
+    #[inline(always)]
+    unsafe fn add(a: Self::V, b: Self::V) -> Self::V {
+        [T::add256(a[0], b[0]), T::add256(a[1], b[1])]
+    }
+}
+
+/// [`BitCounts`] in four AVX2 registers (32 bits each): a 32-bit piece of
+/// the string is broadcast, each byte lane picks the byte holding its bit
+/// (`vpshufb`), and lanes whose bit is set are all ones after a compare,
+/// i.e. -1: subtracting them counts one.
+#[derive(Clone, Copy)]
+pub struct ByteTally256 {
+    bytes: [__m256i; 4],
+}
+
+impl BitCounts for ByteTally256 {
+    #[inline(always)]
+    unsafe fn new() -> Self {
+        ByteTally256 {
+            bytes: [_mm256_setzero_si256(); 4],
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn add<B: Bits>(self, x: B, n: usize) -> Self {
+        let mut bytes = self.bytes;
+        for (c, b) in bytes.iter_mut().enumerate() {
+            // `n` is a constant where this is inlined: unused pieces cost nothing.
+            if 32 * c < n {
+                *b = _mm256_sub_epi8(*b, bit_bytes((x >> (32 * c)).low64() as u32));
+            }
+        }
+        ByteTally256 { bytes }
+    }
+
+    #[inline(always)]
+    unsafe fn bytes(self) -> [u8; 128] {
+        let mut out = [0u8; 128];
+        for (c, b) in self.bytes.iter().enumerate() {
+            _mm256_storeu_si256(out.as_mut_ptr().add(32 * c) as *mut __m256i, *b);
+        }
+        out
+    }
+}
+
+/// All ones (-1: subtracting it counts one) in byte lane `i` where bit `i`
+/// of `piece` is set, else 0.
+///
+/// # Safety
+/// AVX2 is available.
+#[inline(always)]
+pub(super) unsafe fn bit_bytes(piece: u32) -> __m256i {
+    // Byte lane i takes byte i / 8 of the piece (`vpshufb` picks within
+    // each 128-bit half, and every half holds the whole piece).
+    let pick = _mm256_setr_epi8(
+        0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, //
+        2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3,
+    );
+    let bit = _mm256_set1_epi64x(0x8040_2010_0804_0201u64 as i64);
+    let lanes = _mm256_shuffle_epi8(_mm256_set1_epi32(piece as i32), pick);
+    _mm256_cmpeq_epi8(_mm256_and_si256(lanes, bit), bit)
+}
+
+impl<T: Prediction> Periodic<T, Avx2Vectors> {
+    /// See `Periodic::build`: `T::period(b)`, or else `T::whole_period(b)`.
+    ///
+    /// # Safety
+    /// AVX2 is available; one of the two is `Some`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn new(b: &SensorBounds) -> Self {
+        Self::build(
+            b,
+            T::period(b)
+                .or(T::whole_period(b))
+                .expect("a period this kernel takes"),
+        )
+    }
+
+    /// See `Periodic::screen_any`.
+    ///
+    /// # Safety
+    /// AVX2, BMI2 and POPCNT are available; `data` holds the rows back to back.
+    #[inline]
+    #[target_feature(enable = "avx2,bmi2,popcnt")]
+    pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
+        self.screen_any(data, periods, out)
+    }
+
+    /// See `Periodic::diagnose_kept`.
+    ///
+    /// # Safety
+    /// As [`Self::screen`]; `t` has `k` sensors.
+    #[inline]
+    #[target_feature(enable = "avx2,bmi2,popcnt")]
+    pub unsafe fn diagnose(
+        &self,
+        data: &[T],
+        periods: usize,
+        counts: Option<&mut [u32]>,
+        out: &mut BitSink,
+        t: &mut Tally,
+    ) {
+        self.diagnose_kept(data, periods, counts, out, t)
+    }
+}
+
+/// Whether `pext` is fast here: it is one instruction on Intel since
+/// Haswell and on AMD since Zen 3 (family 0x19), microcoded (tens to
+/// hundreds of cycles) on AMD families before that (Zen 1 and 2, 0x17;
+/// Hygon, 0x18).
+pub fn fast_pext() -> bool {
+    static FAST: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *FAST.get_or_init(|| {
+        if !std::arch::is_x86_feature_detected!("bmi2") {
+            return false;
+        }
+        // SAFETY: CPUID leaves 0 and 1 exist on every x86-64 CPU. (`__cpuid`
+        // is a safe function in newer toolchains, an unsafe one in 1.89.)
+        #[allow(unused_unsafe)]
+        let (vendor, signature) = unsafe { (__cpuid(0), __cpuid(1).eax) };
+        let name: Vec<u8> = [vendor.ebx, vendor.edx, vendor.ecx]
+            .iter()
+            .flat_map(|r| r.to_le_bytes())
+            .collect();
+        pext_is_fast(&name, signature)
+    })
+}
+
+/// [`fast_pext`] for the CPU of vendor string `vendor` and CPUID leaf 1
+/// signature (`eax`) `signature`.
+fn pext_is_fast(vendor: &[u8], signature: u32) -> bool {
+    let base = (signature >> 8) & 0xF;
+    let family = if base == 0xF {
+        base + ((signature >> 20) & 0xFF)
+    } else {
+        base
+    };
+    let amd = vendor == b"AuthenticAMD" || vendor == b"HygonGenuine";
+    !(amd && family < 0x19)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pext_is_fast;
+
+    #[test]
+    fn pext_is_slow_on_zen_1_and_2_only() {
+        // Signatures as CPUID reports them: Zen 1 (EPYC 7601), Zen 2 (EPYC
+        // 7742), Hygon Dhyana, Zen 3 (EPYC 7763), Zen 4 (EPYC 9654), Zen 5,
+        // Intel Skylake-SP and Haswell.
+        let amd = b"AuthenticAMD";
+        assert!(!pext_is_fast(amd, 0x0080_0F12));
+        assert!(!pext_is_fast(amd, 0x0083_0F10));
+        assert!(!pext_is_fast(b"HygonGenuine", 0x0090_0F01));
+        assert!(pext_is_fast(amd, 0x00A0_0F11));
+        assert!(pext_is_fast(amd, 0x00A1_0F11));
+        assert!(pext_is_fast(amd, 0x00B0_0F00));
+        assert!(pext_is_fast(b"GenuineIntel", 0x0005_0654));
+        assert!(pext_is_fast(b"GenuineIntel", 0x0003_06F2));
+    }
+}
