@@ -617,3 +617,17 @@ def test_session_16_avx2_figures_match_the_recorded_runs():
     assert (f"f32 rows of 50 and 200 with diagnostics read {spans[0][0]} of the read floor and f64 rows of 50 "
             f"{spans[0][1]} (`benches/results-short-rows.txt`, sections \"session 16 AVX2 first code\"; with this "
             f"kernel, sections \"session 16 AVX2 final code\", {spans[1][0]} and {spans[1][1]})") in doc
+
+
+def test_session_16_one_entry_figure_matches_the_recorded_runs():
+    """Why the periodic kernel keeps one entry point per COUNTS: the slowdown
+    its comment quotes is that of the recorded runs."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    rates = _cells(text.split("\n=== session 16: one entry per COUNTS")[1].split("\n=== ")[0])
+    slower = [1 - one / main for n_m in (5, 10)
+              for name in [f"short_rows_{n_m}/typical/diagnose_bits/f32/Avx2"]
+              for main, one in zip(rates[("main", name)], rates[("one-entry", name)])]
+    assert len(slower) == 4
+    for source in ("periodic.rs", "periodic_avx2.rs"):
+        doc = " ".join((ROOT / "rust" / "src" / "simd" / source).read_text().replace("//", "").split())
+        assert f"10 {min(slower):.0%}-{max(slower):.0%}".replace("%-", "-").replace("%", " %") + " slower at AVX2" in doc

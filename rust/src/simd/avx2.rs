@@ -88,7 +88,11 @@ pub fn diagnose_bits<T: Prediction>(
     let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
     // SAFETY: AVX2, BMI2 (checked by `periodic`) and POPCNT are enabled;
     // `data` holds the rows back to back.
-    unsafe { kernel.diagnose(data, whole / kernel.rows(), head, sink, t) };
+    let periods = whole / kernel.rows();
+    match head {
+        Some(h) => unsafe { kernel.diagnose::<true>(data, periods, h, sink, t) },
+        None => unsafe { kernel.diagnose::<false>(data, periods, &mut [], sink, t) },
+    }
     // Fewer rows than a period.
     let rest = m.slice_rows(whole, m.rows());
     via_counts(rest.rows(), tail, sink, |r0, r1, out| diagnose(rest.slice_rows(r0, r1), b, out, t));

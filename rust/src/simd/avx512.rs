@@ -259,7 +259,11 @@ fn diagnose_bits_pass<T: Prediction>(
         let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
         // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
         // enabled; `data` holds the rows back to back.
-        unsafe { kernel.diagnose(data, whole / kernel.rows(), head, sink, t) };
+        let periods = whole / kernel.rows();
+        match head {
+            Some(h) => unsafe { kernel.diagnose::<true>(data, periods, h, sink, t) },
+            None => unsafe { kernel.diagnose::<false>(data, periods, &mut [], sink, t) },
+        }
         if rest.rows() > 0 {
             // SAFETY: as below (the rest is packed rows too).
             unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };

@@ -126,21 +126,24 @@ impl<T: Prediction> Periodic<T, Avx512Vectors> {
         self.screen_any(data, periods, out)
     }
 
-    /// See [`Periodic::diagnose_kept`].
+    /// See [`Periodic::diagnose_any`].
     ///
     /// # Safety
     /// As [`Self::screen`], and AVX-512BW is available; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx512f,avx512bw,bmi2,popcnt")]
-    pub unsafe fn diagnose(
+    pub unsafe fn diagnose<const COUNTS: bool>(
         &self,
         data: &[T],
         periods: usize,
-        counts: Option<&mut [u32]>,
+        counts: &mut [u32],
         out: &mut BitSink,
         t: &mut Tally,
     ) {
-        self.diagnose_kept(data, periods, counts, out, t)
+        // One entry per `COUNTS`: both in one function ran f32 rows of 5 and
+        // 10 6-11 % slower at AVX2 (`benches/results-short-rows.txt`,
+        // "session 16: one entry per COUNTS").
+        self.diagnose_any::<COUNTS>(data, periods, counts, out, t)
     }
 }
 
@@ -264,25 +267,6 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         }
     }
 
-    /// [`Self::diagnose_any`], with the rows' counts if `counts` is given.
-    ///
-    /// # Safety
-    /// As [`Self::diagnose_any`].
-    #[inline(always)]
-    pub(super) unsafe fn diagnose_kept(
-        &self,
-        data: &[T],
-        periods: usize,
-        counts: Option<&mut [u32]>,
-        out: &mut BitSink,
-        t: &mut Tally,
-    ) {
-        match counts {
-            Some(c) => self.diagnose_any::<true>(data, periods, c, out, t),
-            None => self.diagnose_any::<false>(data, periods, &mut [], out, t),
-        }
-    }
-
     /// Candidate bits of the first `periods * rows` rows of `data` into
     /// `out`, their diagnostics into `t` and, when `COUNTS`, their
     /// rejecting-sensor counts into `counts` (one per row).
@@ -296,7 +280,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     /// # Safety
     /// As [`Self::screen_any`]; `t` has `k` sensors.
     #[inline(always)]
-    unsafe fn diagnose_any<const COUNTS: bool>(
+    pub(super) unsafe fn diagnose_any<const COUNTS: bool>(
         &self,
         data: &[T],
         periods: usize,

@@ -135,21 +135,24 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
         self.screen_any(data, periods, out)
     }
 
-    /// See `Periodic::diagnose_kept`.
+    /// See `Periodic::diagnose_any`.
     ///
     /// # Safety
     /// As [`Self::screen`]; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx2,bmi2,popcnt")]
-    pub unsafe fn diagnose(
+    pub unsafe fn diagnose<const COUNTS: bool>(
         &self,
         data: &[T],
         periods: usize,
-        counts: Option<&mut [u32]>,
+        counts: &mut [u32],
         out: &mut BitSink,
         t: &mut Tally,
     ) {
-        self.diagnose_kept(data, periods, counts, out, t)
+        // One entry per `COUNTS`: both in one function ran f32 rows of 5 and
+        // 10 6-11 % slower at AVX2 (`benches/results-short-rows.txt`,
+        // "session 16: one entry per COUNTS").
+        self.diagnose_any::<COUNTS>(data, periods, counts, out, t)
     }
 }
 
