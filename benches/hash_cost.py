@@ -2,9 +2,11 @@
 
 A checkpointed run sums every row it falsifies into the block checksum
 ``fletcher64x8/2`` (``rust/src/digest.rs``), in the falsifier's own pass
-(``Falsifier.update(chunk, digest=...)``): each 128 KiB of rows is summed
-by the thread that has just screened it, while the rows are in that core's
-L2 cache. This times, side by side in one run, the same in-memory chunks through
+(``Falsifier.update(chunk, digest=...)``, ``rust/src/summing.rs``): where
+the periodic kernel screens the rows (rows of up to 12 sensors, and some
+wider, at AVX-512) it adds each vector it loads to the sums as it compares
+it; other rows are summed 128 KiB at a time by the thread that has just
+screened them, while they are in that core's L2 cache. This times, side by side in one run, the same in-memory chunks through
 
 - "off": the falsifier alone;
 - "on":  the falsifier feeding the checksum (what a checkpointed run does);

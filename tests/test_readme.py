@@ -108,6 +108,9 @@ def test_the_checksum_cost_is_the_benchmark_file():
     session_13 = re.search(r"streaming warm, ckpt\+sum / ckpt: median ([\d.]+)", session_13)[1]
     assert (f"session 13 measured {session_13} there, before the falsifier itself got faster (session 15), and "
             f"on a busier host with the same checksum {busier}.") in readme
+    beside = next(s for s in sections if s.startswith("2026-11-25 04:30 UTC, session 17: the session start's code"))
+    beside = re.search(r"streaming warm, ckpt\+sum / ckpt: median ([\d.]+)", beside)[1]
+    assert f"the code before the kernel summed gave {beside} in a run beside it" in readme
 
 
 def test_the_checksum_rates_are_the_benchmark_file():

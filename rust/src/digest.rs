@@ -53,7 +53,8 @@
 //!
 //! Summing instead of hashing is what makes it nearly free: the sums are
 //! additive, so any rows can be summed apart (by the falsifier's threads,
-//! right after the kernel has read them) and the parts added in any order.
+//! by the kernel as it reads them, see [`crate::summing`]) and the parts
+//! added in any order.
 
 use crate::error::{EdmfError, Result};
 use crate::kernel::Isa;
@@ -70,8 +71,12 @@ pub const BLOCK_ROWS: usize = 65_536;
 pub const PIECE_ROWS: usize = 1024;
 /// Lanes of the checksum.
 pub const LANES: usize = 8;
-/// 32-bit units in one step of the lanes (eight words).
-const STEP_UNITS: u64 = 2 * LANES as u64;
+/// 32-bit units in one step of the lanes (eight words, 64 bytes: a group).
+pub const STEP_UNITS: u64 = 2 * LANES as u64;
+
+/// Lane sums of consecutive whole groups, as the vector loops keep them:
+/// `[s1, h1, s2, h2]` (see [`add_groups`]).
+pub type Groups = [[u64; LANES]; 4];
 
 /// Values a checksum reads.
 pub trait Value: Copy + Send + Sync {
@@ -190,23 +195,29 @@ pub fn sum_with<T: Value>(isa: Isa, values: &[T], u0: u64, s: &mut Sums) {
         groups_portable(groups, m)
     };
     literal(&values[..head], u0, s);
-    // Over steps j0 .. j0 + m: s1 = sum x_t, s2 = sum (m - t) x_t, so
-    // sum (j0 + t) x_t = (j0 + m) s1 - s2 (all modulo 2^64).
-    let end = (u0 + head as u64 * per_unit) / STEP_UNITS + m as u64;
+    add_groups(s, &[s1, h1, s2, h2], m, (u0 + head as u64 * per_unit) / STEP_UNITS);
+    let rest = head + m * per_group;
+    literal(&values[rest..], u0 + rest as u64 * per_unit, s);
+}
+
+/// Adds to `s` the lane sums `[s1, h1, s2, h2]` of the `m` groups at steps
+/// `j0 .. j0 + m` of a block: `s1 = sum x_t` and `s2 = sum (m - t) x_t` (the
+/// loops' recurrence), so `sum (j0 + t) x_t = (j0 + m) s1 - s2`, all modulo
+/// 2^64; likewise the high halves `h1`, `h2`.
+pub fn add_groups(s: &mut Sums, [s1, h1, s2, h2]: &Groups, m: usize, j0: u64) {
+    let end = j0 + m as u64;
     for l in 0..LANES {
         s.a[l] = s.a[l].wrapping_add(s1[l]);
         s.h[l] = s.h[l].wrapping_add(h1[l]);
         s.b[l] = s.b[l].wrapping_add(end.wrapping_mul(s1[l]).wrapping_sub(s2[l]));
         s.g[l] = s.g[l].wrapping_add(end.wrapping_mul(h1[l]).wrapping_sub(h2[l]));
     }
-    s.units = s.units.wrapping_add(groups.len() as u64 * per_unit);
-    let rest = head + m * per_group;
-    literal(&values[rest..], u0 + rest as u64 * per_unit, s);
+    s.units = s.units.wrapping_add(m as u64 * STEP_UNITS);
 }
 
 /// The vector loops' recurrence (`simd::checksum`) in plain Rust over
 /// fixed-width lanes: the portable level, and CPUs other than x86-64.
-fn groups_portable<T: Value>(values: &[T], m: usize) -> [[u64; LANES]; 4] {
+fn groups_portable<T: Value>(values: &[T], m: usize) -> Groups {
     let (mut s1, mut h1, mut s2, mut h2) = ([0u64; LANES], [0u64; LANES], [0u64; LANES], [0u64; LANES]);
     for t in 0..m {
         for l in 0..LANES {
@@ -248,44 +259,6 @@ pub fn part<T: Value>(m: Matrix<'_, T>, first_row: u64, buf: &mut Vec<T>) -> Par
     part_with(Isa::detect(), m, first_row, buf)
 }
 
-/// Bytes of input summed right after the kernel has read them: small enough
-/// to be still in L2 (1-2 MiB per core on current x86), large enough that
-/// the kernel is called on long runs of rows. Measured on an AMD EPYC (Zen 4),
-/// one thread, CPU time of falsifier + checksum over falsifier alone, median
-/// of 24 cases, load average 2-4: 1.51-1.53 at 16 KiB (in L1, but the kernel then restarts
-/// every ~200 short rows), 1.25-1.27 at 128 KiB, 1.30-1.35 per whole block.
-const INTERLEAVE_BYTES: usize = 128 << 10;
-
-/// [`part`] of the rows of `m`, computed [`INTERLEAVE_BYTES`] at a time, each
-/// right after `kernel(r0, r1)` has been called on rows `r0..r1` of `m`
-/// (every row once, in order).
-pub fn part_after<T: Value>(
-    m: Matrix<'_, T>,
-    first_row: u64,
-    buf: &mut Vec<T>,
-    mut kernel: impl FnMut(usize, usize),
-) -> Part {
-    let isa = Isa::detect();
-    let row_bytes = (m.cols() * std::mem::size_of::<T>()).max(1);
-    let step = (INTERLEAVE_BYTES / row_bytes).clamp(16, PIECE_ROWS);
-    let block = |row: u64| row / BLOCK_ROWS as u64;
-    let mut p = Part::default();
-    let mut r = 0;
-    while r < m.rows() {
-        let e = (r + step).min(m.rows());
-        kernel(r, e);
-        let q = part_with(isa, m.slice_rows(r, e), first_row + r as u64, buf);
-        if block(first_row + r as u64) == block(first_row) {
-            p.first.add(&q.first);
-            p.second.add(&q.second);
-        } else {
-            p.second.add(&q.first); // (q.second is empty: rows span fewer than BLOCK_ROWS)
-        }
-        r = e;
-    }
-    p
-}
-
 /// Adds the sums of rows `m` (row `row` of their block onwards) to `s`.
 fn rows_sums<T: Value>(isa: Isa, m: Matrix<'_, T>, row: usize, buf: &mut Vec<T>, s: &mut Sums) {
     let (rows, cols) = (m.rows(), m.cols());
@@ -312,7 +285,7 @@ fn rows_sums<T: Value>(isa: Isa, m: Matrix<'_, T>, row: usize, buf: &mut Vec<T>,
 /// stream of units. (A block whose chunks change dtype gets, row by row, the
 /// positions of its own dtype: still a function of each row's index, dtype
 /// and values only, so whatever the chunking.)
-fn first_unit<T: Value>(row: usize, cols: usize) -> u64 {
+pub fn first_unit<T: Value>(row: usize, cols: usize) -> u64 {
     (row as u64) * (cols as u64) * T::UNITS as u64
 }
 

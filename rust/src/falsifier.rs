@@ -8,14 +8,16 @@
 //!
 //! A checkpointed run also needs the checksum of every row (see
 //! [`crate::digest`]); `update_digested` sums each kernel block's rows in the
-//! task that has just screened them, while they are still in that core's
-//! cache, instead of reading the whole chunk from memory again.
+//! task that screens them ([`crate::summing`]): in the kernel's own pass
+//! where it can, else right after, while they are in that core's cache,
+//! instead of reading the whole chunk from memory again.
 
 use crate::candidates::{count_bits, reserve, BitSink, CandidateSet, Segment};
-use crate::digest::{self, Part, Pending, RowDigest, Value, PIECE_ROWS};
+use crate::digest::{Part, Pending, RowDigest, Value, PIECE_ROWS};
 use crate::error::{EdmfError, Result};
 use crate::kernel::{diagnose_bits_with, screen_bits_with, Isa, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
+use crate::summing::{self, Summed};
 use crate::thresholds::Thresholds;
 use crate::violations::Violations;
 use rayon::prelude::*;
@@ -410,13 +412,20 @@ fn diagnose_parallel<T: Prediction + Value>(
         w.fill(0);
         let keep = !o.is_empty();
         match sum_from {
-            // Each 128 KiB summed right after the kernel read them (in L2); one block a task.
+            // Summed by the kernel as it reads them, or right after (in L2); one block a task.
             Some(base) => {
-                slots[0] = digest::part_after(span, base + first as u64, &mut buf, |r0, r1| {
+                let fused = summing::kernel_sums(isa, span, b);
+                slots[0] = summing::part_after(span, base + first as u64, &mut buf, fused, |r0, r1, sum| {
                     let mut sink = BitSink::new(w, r0);
-                    let c = if keep { Some(&mut o[r0..r1]) } else { None };
-                    diagnose_bits_with(isa, span.slice_rows(r0, r1), b, c, &mut sink, &mut t);
+                    let (c, rows) = (if keep { Some(&mut o[r0..r1]) } else { None }, span.slice_rows(r0, r1));
+                    let summed = if sum {
+                        summing::diagnose_bits_summed_with(isa, rows, b, c, &mut sink, &mut t)
+                    } else {
+                        diagnose_bits_with(isa, rows, b, c, &mut sink, &mut t);
+                        Summed::default()
+                    };
                     sink.finish();
+                    summed
                 })
             }
             None => {
@@ -457,12 +466,19 @@ fn screen_parallel<T: Prediction + Value>(
         let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
         w.fill(0);
         match sum_from {
-            // Each 128 KiB summed right after the kernel read them (in L2); one block a task.
+            // As in `diagnose_parallel`.
             Some(base) => {
-                slots[0] = digest::part_after(span, base + first as u64, buf, |r0, r1| {
-                    let mut sink = BitSink::new(w, r0);
-                    screen_bits_with(isa, span.slice_rows(r0, r1), b, plan, &mut sink);
+                let fused = summing::kernel_sums(isa, span, b);
+                slots[0] = summing::part_after(span, base + first as u64, buf, fused, |r0, r1, sum| {
+                    let (mut sink, rows) = (BitSink::new(w, r0), span.slice_rows(r0, r1));
+                    let summed = if sum {
+                        summing::screen_bits_summed_with(isa, rows, b, plan, &mut sink)
+                    } else {
+                        screen_bits_with(isa, rows, b, plan, &mut sink);
+                        Summed::default()
+                    };
                     sink.finish();
+                    summed
                 })
             }
             None => {

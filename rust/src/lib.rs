@@ -23,6 +23,7 @@ mod falsifier_digest_tests;
 pub mod kernel;
 pub mod matrix;
 pub mod screening;
+pub mod summing;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 #[cfg(test)]

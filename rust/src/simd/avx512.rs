@@ -3,7 +3,8 @@
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
 use super::medium;
-use super::periodic::{Avx512Vectors, Periodic};
+use super::checksum::Fletcher;
+use super::periodic::{Avx512Vectors, NoSums, Periodic};
 use super::short::{takes, ShortRows};
 use crate::candidates::BitSink;
 use crate::kernel::{diagnose_impl, screen_impl, via_counts, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
@@ -188,6 +189,17 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
     unsafe { any_rejecting(row, accept) != 0 }
 }
 
+/// Whether the periodic kernel takes rows `m`: rows stored back to back
+/// whose width has a period (and the tail's kernel takes), on a CPU with
+/// BMI2 (the rows' verdicts) and AVX-512BW (the diagnostics' byte counts).
+pub fn periodic_takes<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds) -> bool {
+    m.packed_rows().is_some()
+        && T::period(b).is_some()
+        && ShortRows::<T>::fits(m.cols())
+        && std::arch::is_x86_feature_detected!("bmi2")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+}
+
 /// The rows of `m` that the periodic kernel takes (whole periods of rows
 /// stored back to back), their values and the kernel; the rest of `m` after them.
 #[inline]
@@ -196,12 +208,7 @@ fn periodic<'a, T: Prediction>(
     m: Matrix<'a, T>,
     b: &SensorBounds,
 ) -> Option<(Periodic<T, Avx512Vectors>, &'a [T], usize)> {
-    let data = m.packed_rows()?;
-    T::period(b).filter(|_| ShortRows::<T>::fits(m.cols()))?; // the tail's kernel
-    // BMI2 for the rows' verdicts, AVX-512BW for the diagnostics' byte counts.
-    if !std::arch::is_x86_feature_detected!("bmi2") || !std::arch::is_x86_feature_detected!("avx512bw") {
-        return None;
-    }
+    let data = m.packed_rows().filter(|_| periodic_takes(m, b))?;
     // SAFETY: AVX-512F is enabled; `period` accepted the width.
     let kernel = unsafe { Periodic::<T, Avx512Vectors>::new(b) };
     let whole = m.rows() - m.rows() % kernel.rows();
@@ -261,8 +268,8 @@ fn diagnose_bits_pass<T: Prediction>(
         // enabled; `data` holds the rows back to back.
         let periods = whole / kernel.rows();
         match head {
-            Some(h) => unsafe { kernel.diagnose::<true>(data, periods, h, sink, t) },
-            None => unsafe { kernel.diagnose::<false>(data, periods, &mut [], sink, t) },
+            Some(h) => unsafe { kernel.diagnose::<true, _>(data, periods, h, sink, (t, &mut NoSums)) },
+            None => unsafe { kernel.diagnose::<false, _>(data, periods, &mut [], sink, (t, &mut NoSums)) },
         }
         if rest.rows() > 0 {
             // SAFETY: as below (the rest is packed rows too).
@@ -311,13 +318,68 @@ fn diagnose_bits_pass<T: Prediction>(
     }
 }
 
+/// [`diagnose_bits`] over fewer than `MAX_PASS_ROWS` rows that also adds the
+/// rows the periodic kernel reads, as whole vectors, to `sums` (see
+/// `summing::part_after`): rows `0..n` for the `n` returned (0 where rows of
+/// this width have no period).
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+pub fn diagnose_bits_summed<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    (t, sums): (&mut Tally, &mut Fletcher),
+) -> usize {
+    assert!(m.rows() < MAX_PASS_ROWS);
+    let Some((kernel, data, whole)) = periodic(m, b) else {
+        diagnose_bits_pass(m, b, counts, sink, t);
+        return 0;
+    };
+    let rest = m.slice_rows(whole, m.rows());
+    let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
+    let periods = whole / kernel.rows();
+    // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
+    // enabled; `data` holds the rows back to back.
+    match head {
+        Some(h) => unsafe { kernel.diagnose::<true, _>(data, periods, h, sink, (t, sums)) },
+        None => unsafe { kernel.diagnose::<false, _>(data, periods, &mut [], sink, (t, sums)) },
+    }
+    if rest.rows() > 0 {
+        // SAFETY: as in `diagnose_bits_pass`.
+        unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };
+    }
+    whole
+}
+
+/// [`screen_bits`] that also adds rows to `sums`, as [`diagnose_bits_summed`].
+#[target_feature(enable = "avx512f,popcnt")]
+pub fn screen_bits_summed<T: Prediction>(
+    m: Matrix<'_, T>,
+    (b, plan): (&SensorBounds, &ScreenPlan),
+    sink: &mut BitSink,
+    sums: &mut Fletcher,
+) -> usize {
+    let Some((kernel, data, whole)) = periodic(m, b) else {
+        screen_bits(m, b, plan, sink);
+        return 0;
+    };
+    // SAFETY: as in `diagnose_bits_summed`.
+    unsafe { kernel.screen(data, whole / kernel.rows(), sink, sums) };
+    let rest = m.slice_rows(whole, m.rows());
+    if rest.rows() > 0 {
+        // SAFETY: as in `screen_bits`.
+        unsafe { ShortRows::<T>::new(b, true).screen(rest, sink) };
+    }
+    whole
+}
+
 /// Candidate bits of the rows of `m` into `sink`.
 #[target_feature(enable = "avx512f,popcnt")]
 pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, sink: &mut BitSink) {
     if let Some((kernel, data, whole)) = periodic(m, b) {
         // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
         // enabled; `data` holds the rows back to back.
-        unsafe { kernel.screen(data, whole / kernel.rows(), sink) };
+        unsafe { kernel.screen(data, whole / kernel.rows(), sink, &mut NoSums) };
         let rest = m.slice_rows(whole, m.rows());
         if rest.rows() > 0 {
             // SAFETY: as below (the rest is packed rows too).

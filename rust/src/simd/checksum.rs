@@ -16,11 +16,16 @@
 //! eight values on top of the five operations; `cargo bench --bench
 //! checksum` now times float64 and float32 on the same bytes,
 //! `benches/results-checksum.txt`).
+//!
+//! [`Fletcher`] is the same recurrence fed by the AVX-512 periodic kernel,
+//! one vector at a time as it compares them: there the four additions are
+//! all the checksum costs (no load, nothing read twice).
 
+use super::periodic::{Avx512Vectors, Vectors};
+use crate::kernel::Prediction;
 use std::arch::x86_64::*;
 
-/// Lane sums of whole groups: `[s1, h1, s2, h2]`, eight lanes each.
-pub type Groups = [[u64; 8]; 4];
+pub use crate::digest::Groups;
 
 /// The recurrence for one group `x` into `(s1, h1, s2, h2)`.
 macro_rules! step {
@@ -70,6 +75,76 @@ pub unsafe fn groups_avx512(p: *const u8, m: usize) -> Groups {
         unsafe { _mm512_storeu_si512(o.as_mut_ptr() as *mut __m512i, v) };
     }
     out
+}
+
+/// What the kernel hands each vector it reads, besides comparing it, in the
+/// order of the data: nothing ([`NoSums`]), or the checkpoint checksum's
+/// sums ([`Fletcher`]), so that a checkpointed run sums its rows in
+/// the pass that screens them instead of reading them again (the vector is
+/// in a register already, and the additions fill the kernel's gaps).
+pub trait SumVectors<T: Prediction, L: Vectors<T>>: Copy {
+    /// # Safety: the level's features are enabled.
+    unsafe fn add(&mut self, x: L::V);
+}
+
+/// Vectors read are only compared.
+#[derive(Clone, Copy)]
+pub struct NoSums;
+
+impl<T: Prediction, L: Vectors<T>> SumVectors<T, L> for NoSums {
+    #[inline(always)]
+    unsafe fn add(&mut self, _: L::V) {}
+}
+
+/// The sums of [`groups_avx512`] over groups handed one by one, in order, by
+/// the periodic kernel as it reads them (each of its vectors is one group of
+/// 64 bytes; see `digest::part_after`): one chain of additions, the kernel's
+/// own work filling the gaps between them. `Copy`, so the kernel keeps it in
+/// registers.
+#[derive(Clone, Copy)]
+pub struct Fletcher {
+    s1: __m512i,
+    h1: __m512i,
+    s2: __m512i,
+    h2: __m512i,
+}
+
+impl Fletcher {
+    /// No groups yet.
+    ///
+    /// # Safety
+    /// AVX-512F is available.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn new() -> Self {
+        let z = _mm512_setzero_si512();
+        Fletcher { s1: z, h1: z, s2: z, h2: z }
+    }
+
+    /// The lane sums `[s1, h1, s2, h2]` of the groups so far (as [`groups_avx512`]'s).
+    ///
+    /// # Safety
+    /// AVX-512F is available.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn sums(&self) -> Groups {
+        let mut out = [[0u64; 8]; 4];
+        for (o, v) in out.iter_mut().zip([self.s1, self.h1, self.s2, self.h2]) {
+            // SAFETY: `o` holds exactly 64 bytes.
+            unsafe { _mm512_storeu_si512(o.as_mut_ptr() as *mut __m512i, v) };
+        }
+        out
+    }
+}
+
+impl<T: Prediction> SumVectors<T, Avx512Vectors> for Fletcher {
+    #[inline(always)]
+    unsafe fn add(&mut self, x: T::V512) {
+        // The recurrence of `step!`, on fields.
+        let x = T::bits512(x);
+        self.s1 = _mm512_add_epi64(self.s1, x);
+        self.h1 = _mm512_add_epi64(self.h1, _mm512_srli_epi64::<32>(x));
+        self.s2 = _mm512_add_epi64(self.s2, self.s1);
+        self.h2 = _mm512_add_epi64(self.h2, self.h1);
+    }
 }
 
 /// As [`groups_avx512`], lanes 0-3 and 4-7 of each group in two AVX2 registers.

@@ -109,6 +109,8 @@ pub trait Lanes: Copy {
     unsafe fn index512(idx: &[i32; 16]) -> __m512i;
     /// Lanes of `p` rearranged by an index from `index512`. # Safety: AVX-512F is available.
     unsafe fn permute512(idx: __m512i, p: Self::V512) -> Self::V512;
+    /// The vector's bits as eight 64-bit words (no conversion). # Safety: AVX-512F is available.
+    unsafe fn bits512(p: Self::V512) -> __m512i;
 }
 
 impl Lanes for f64 {
@@ -211,6 +213,12 @@ impl Lanes for f64 {
     #[target_feature(enable = "avx512f")]
     unsafe fn add512(a: __m512d, b: __m512d) -> __m512d {
         _mm512_add_pd(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn bits512(p: __m512d) -> __m512i {
+        _mm512_castpd_si512(p)
     }
 
     #[inline]
@@ -342,6 +350,12 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn add512(a: __m512, b: __m512) -> __m512 {
         _mm512_add_ps(a, b)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn bits512(p: __m512) -> __m512i {
+        _mm512_castps_si512(p)
     }
 
     #[inline]

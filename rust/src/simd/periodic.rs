@@ -43,6 +43,7 @@
 //! period, the intervals' pattern and the verdict string are the same.
 
 use super::bit_string::{spread, BitCounts, BitTally, Bits};
+pub use super::checksum::{NoSums, SumVectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, SensorBounds, Tally};
 
@@ -122,8 +123,14 @@ impl<T: Prediction> Periodic<T, Avx512Vectors> {
     /// AVX-512F, BMI2 and POPCNT are available; `data` holds the rows back to back.
     #[inline]
     #[target_feature(enable = "avx512f,bmi2,popcnt")]
-    pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
-        self.screen_any(data, periods, out)
+    pub unsafe fn screen<S: SumVectors<T, Avx512Vectors>>(
+        &self,
+        data: &[T],
+        periods: usize,
+        out: &mut BitSink,
+        sums: &mut S,
+    ) {
+        self.screen_any(data, periods, out, sums)
     }
 
     /// See [`Periodic::diagnose_any`].
@@ -132,18 +139,18 @@ impl<T: Prediction> Periodic<T, Avx512Vectors> {
     /// As [`Self::screen`], and AVX-512BW is available; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx512f,avx512bw,bmi2,popcnt")]
-    pub unsafe fn diagnose<const COUNTS: bool>(
+    pub unsafe fn diagnose<const COUNTS: bool, S: SumVectors<T, Avx512Vectors>>(
         &self,
         data: &[T],
         periods: usize,
         counts: &mut [u32],
         out: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
         // One entry per `COUNTS`: both in one function ran f32 rows of 5 and
         // 10 6-11 % slower at AVX2 (`benches/results-short-rows.txt`,
         // "session 16: one entry per COUNTS").
-        self.diagnose_any::<COUNTS>(data, periods, counts, out, t)
+        self.diagnose_any::<COUNTS, S>(data, periods, counts, out, (t, sums))
     }
 }
 
@@ -175,12 +182,16 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     }
 
     /// Rejecting lanes and NaN lanes of the period starting at `p`, one bit
-    /// per value (bit `v*W + l` for lane `l` of vector `v`).
+    /// per value (bit `v*W + l` for lane `l` of vector `v`); each vector to `sums`.
     ///
     /// # Safety
     /// The level's features are enabled; `p` points to `rows * k` readable values.
     #[inline(always)]
-    unsafe fn period_bits<B: Bits, const P: usize, const NAN: bool>(&self, p: *const T) -> (B, B) {
+    unsafe fn period_bits<B: Bits, const P: usize, const NAN: bool, S: SumVectors<T, L>>(
+        &self,
+        p: *const T,
+        sums: &mut S,
+    ) -> (B, B) {
         let w = T::W512;
         for v in 0..P {
             // One cache line a vector, as far ahead as the row kernels (see
@@ -191,6 +202,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         let (mut out, mut nan) = ([0u32; P], [0u32; P]);
         for v in 0..P {
             let x = L::load(p.add(v * w));
+            sums.add(x);
             if NAN && self.period.proper {
                 let (ge, le) = L::sides(x, self.low[v], self.high[v]);
                 (out[v], nan[v]) = (!(ge & le) & full, !(ge | le) & full);
@@ -217,51 +229,71 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         (tops, tops.gather(top))
     }
 
-    /// Candidate bits of the first `periods * rows` rows of `data`, into `out`.
+    /// Candidate bits of the first `periods * rows` rows of `data`, into
+    /// `out`; their vectors, in order, to `sums`.
     ///
     /// # Safety
     /// The level's features, BMI2 and POPCNT are enabled; `data` holds those
     /// rows back to back.
     #[inline(always)]
-    pub(super) unsafe fn screen_any(&self, data: &[T], periods: usize, out: &mut BitSink) {
-        // A local sink: its state stays in registers (behind `&mut`, LLVM
-        // stored it after each push, as the words written might alias it).
+    pub(super) unsafe fn screen_any<S: SumVectors<T, L>>(
+        &self,
+        data: &[T],
+        periods: usize,
+        out: &mut BitSink,
+        sums: &mut S,
+    ) {
+        // A local sink and local sums: their state stays in registers (behind
+        // `&mut`, LLVM stored the sink after each push, as the words written
+        // might alias it).
         let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
-        let sink = &mut local;
+        let (sink, mut s) = (&mut local, *sums);
         match self.period.vectors {
-            1 => self.screen_p::<1>(data, periods, sink),
-            2 => self.screen_p::<2>(data, periods, sink),
-            3 => self.screen_p::<3>(data, periods, sink),
-            4 => self.screen_p::<4>(data, periods, sink),
-            5 => self.screen_p::<5>(data, periods, sink),
-            6 => self.screen_p::<6>(data, periods, sink),
-            7 => self.screen_p::<7>(data, periods, sink),
-            _ => self.screen_p::<8>(data, periods, sink),
+            1 => self.screen_p::<1, S>(data, periods, sink, &mut s),
+            2 => self.screen_p::<2, S>(data, periods, sink, &mut s),
+            3 => self.screen_p::<3, S>(data, periods, sink, &mut s),
+            4 => self.screen_p::<4, S>(data, periods, sink, &mut s),
+            5 => self.screen_p::<5, S>(data, periods, sink, &mut s),
+            6 => self.screen_p::<6, S>(data, periods, sink, &mut s),
+            7 => self.screen_p::<7, S>(data, periods, sink, &mut s),
+            _ => self.screen_p::<8, S>(data, periods, sink, &mut s),
         }
-        *out = local;
+        (*out, *sums) = (local, s);
     }
 
     /// [`Self::screen_any`] with `P` vectors a period: unrolled, the lane
     /// patterns and the masks in registers (a loop over a run-time count
     /// spilled them to the stack).
     #[inline(always)]
-    unsafe fn screen_p<const P: usize>(&self, data: &[T], periods: usize, sink: &mut BitSink) {
+    unsafe fn screen_p<const P: usize, S: SumVectors<T, L>>(
+        &self,
+        data: &[T],
+        periods: usize,
+        sink: &mut BitSink,
+        sums: &mut S,
+    ) {
         if P * T::W512 <= 64 {
-            self.screen_pb::<u64, P>(data, periods, sink)
+            self.screen_pb::<u64, P, S>(data, periods, sink, sums)
         } else {
-            self.screen_pb::<u128, P>(data, periods, sink)
+            self.screen_pb::<u128, P, S>(data, periods, sink, sums)
         }
     }
 
     /// [`Self::screen_p`] with the period's bits in `B`.
     #[inline(always)]
-    unsafe fn screen_pb<B: Bits, const P: usize>(&self, data: &[T], periods: usize, sink: &mut BitSink) {
+    unsafe fn screen_pb<B: Bits, const P: usize, S: SumVectors<T, L>>(
+        &self,
+        data: &[T],
+        periods: usize,
+        sink: &mut BitSink,
+        sums: &mut S,
+    ) {
         let (k, rows) = (self.k, self.period.rows);
         assert!(P == self.period.vectors && P * T::W512 <= B::BITS);
         assert!(data.len() >= periods * rows * k);
         let all = u32::MAX >> (32 - rows);
         for q in 0..periods {
-            let (bits, _) = self.period_bits::<B, P, false>(data.as_ptr().add(q * rows * k));
+            let (bits, _) = self.period_bits::<B, P, false, S>(data.as_ptr().add(q * rows * k), sums);
             let (_, rejected) = self.any_per_row(bits);
             sink.push((!rejected & all) as u64, rows as u32);
         }
@@ -280,64 +312,65 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     /// # Safety
     /// As [`Self::screen_any`]; `t` has `k` sensors.
     #[inline(always)]
-    pub(super) unsafe fn diagnose_any<const COUNTS: bool>(
+    pub(super) unsafe fn diagnose_any<const COUNTS: bool, S: SumVectors<T, L>>(
         &self,
         data: &[T],
         periods: usize,
         counts: &mut [u32],
         out: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
-        // A local sink, as in `screen_any`.
+        // A local sink and local sums, as in `screen_any`.
         let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
-        let sink = &mut local;
+        let (sink, mut s) = (&mut local, *sums);
+        let t = (t, &mut s);
         match self.period.vectors {
-            1 => self.diagnose_p::<1, 0, COUNTS>(data, periods, counts, sink, t),
-            2 => self.diagnose_p::<2, 0, COUNTS>(data, periods, counts, sink, t),
-            3 => self.diagnose_p::<3, 0, COUNTS>(data, periods, counts, sink, t),
-            4 => self.diagnose_p::<4, 0, COUNTS>(data, periods, counts, sink, t),
+            1 => self.diagnose_p::<1, 0, COUNTS, S>(data, periods, counts, sink, t),
+            2 => self.diagnose_p::<2, 0, COUNTS, S>(data, periods, counts, sink, t),
+            3 => self.diagnose_p::<3, 0, COUNTS, S>(data, periods, counts, sink, t),
+            4 => self.diagnose_p::<4, 0, COUNTS, S>(data, periods, counts, sink, t),
             // Rows of 5 and 10 sensors, the common load tests: field
             // shifts by a constant (a u128 shift by a run-time count is five
             // instructions with a branchless fix-up).
             5 => match self.k {
-                5 => self.diagnose_p::<5, 5, COUNTS>(data, periods, counts, sink, t),
-                10 => self.diagnose_p::<5, 10, COUNTS>(data, periods, counts, sink, t),
-                _ => self.diagnose_p::<5, 0, COUNTS>(data, periods, counts, sink, t),
+                5 => self.diagnose_p::<5, 5, COUNTS, S>(data, periods, counts, sink, t),
+                10 => self.diagnose_p::<5, 10, COUNTS, S>(data, periods, counts, sink, t),
+                _ => self.diagnose_p::<5, 0, COUNTS, S>(data, periods, counts, sink, t),
             },
-            6 => self.diagnose_p::<6, 0, COUNTS>(data, periods, counts, sink, t),
-            7 => self.diagnose_p::<7, 0, COUNTS>(data, periods, counts, sink, t),
-            _ => self.diagnose_p::<8, 0, COUNTS>(data, periods, counts, sink, t),
+            6 => self.diagnose_p::<6, 0, COUNTS, S>(data, periods, counts, sink, t),
+            7 => self.diagnose_p::<7, 0, COUNTS, S>(data, periods, counts, sink, t),
+            _ => self.diagnose_p::<8, 0, COUNTS, S>(data, periods, counts, sink, t),
         }
-        *out = local;
+        (*out, *sums) = (local, s);
     }
 
     /// [`Self::diagnose_any`] with `P` vectors a period (see `screen_p`) of rows
     /// of `K` sensors (0: `self.k`, known at run time).
     #[inline(always)]
-    unsafe fn diagnose_p<const P: usize, const K: usize, const COUNTS: bool>(
+    unsafe fn diagnose_p<const P: usize, const K: usize, const COUNTS: bool, S: SumVectors<T, L>>(
         &self,
         data: &[T],
         periods: usize,
         counts: &mut [u32],
         sink: &mut BitSink,
-        t: &mut Tally,
+        t: (&mut Tally, &mut S),
     ) {
         if P * T::W512 <= 64 {
-            self.diagnose_pb::<u64, P, K, COUNTS>(data, periods, counts, sink, t)
+            self.diagnose_pb::<u64, P, K, COUNTS, S>(data, periods, counts, sink, t)
         } else {
-            self.diagnose_pb::<u128, P, K, COUNTS>(data, periods, counts, sink, t)
+            self.diagnose_pb::<u128, P, K, COUNTS, S>(data, periods, counts, sink, t)
         }
     }
 
     /// [`Self::diagnose_p`] with the period's bits in `B`.
     #[inline(always)]
-    unsafe fn diagnose_pb<B: Bits, const P: usize, const K: usize, const COUNTS: bool>(
+    unsafe fn diagnose_pb<B: Bits, const P: usize, const K: usize, const COUNTS: bool, S: SumVectors<T, L>>(
         &self,
         data: &[T],
         periods: usize,
         counts: &mut [u32],
         sink: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
         let w = T::W512;
         let (k, rows) = if K == 0 { (self.k, self.period.rows) } else { (K, P * w / K) };
@@ -357,7 +390,9 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             let mut rejecting = [0u32; P];
             for (v, r) in rejecting.iter_mut().enumerate() {
                 super::prefetch_line(p.add(v * w));
-                *r = L::outside(L::load(p.add(v * w)), self.low[v], self.high[v]);
+                let x = L::load(p.add(v * w));
+                sums.add(x);
+                *r = L::outside(x, self.low[v], self.high[v]);
             }
             let bits = B::string(&rejecting, w);
             if bits == B::ZERO {
@@ -389,7 +424,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             }
             if suspect {
                 // Rare: a NaN row is never a candidate, counted once.
-                let (_, nan) = self.period_bits::<B, P, true>(p);
+                let (_, nan) = self.period_bits::<B, P, true, NoSums>(p, &mut NoSums);
                 invalid += (0..rows).filter(|r| (nan >> (r * k)).low64() & field != 0).count() as u64;
             }
             outside = outside.add(bits, P * w);
@@ -410,38 +445,5 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn periods_of_short_rows() {
-        // (vectors, rows): rows of 5 and 10 sensors, f32 (16 a vector) and f64 (8).
-        let period = |k, w| Period::new(k, w, true).map(|p| (p.vectors, p.rows));
-        assert_eq!(period(5, 16), Some((5, 16)));
-        assert_eq!(period(10, 16), Some((5, 8)));
-        assert_eq!(period(5, 8), Some((5, 8)));
-        assert_eq!(period(10, 8), Some((5, 4)));
-        assert_eq!(period(3, 8), Some((3, 8)));
-        // Whole vectors per row, or a period too long: other kernels.
-        assert_eq!(period(16, 8), None);
-        assert_eq!(period(16, 16), None);
-        assert_eq!(period(9, 8), None);
-        assert_eq!(period(9, 16), None);
-        // Rows of whole vectors, as many as 8 vectors and 128 bits hold (AVX2 only).
-        let whole = |k, w| Period::whole_rows(k, w, true).map(|p| (p.vectors, p.rows));
-        assert_eq!(whole(16, 8), Some((8, 4)));
-        assert_eq!(whole(8, 8), Some((8, 8)));
-        assert_eq!(whole(24, 8), Some((6, 2)));
-        assert_eq!(whole(32, 8), Some((8, 2)));
-        assert_eq!(whole(16, 16), Some((8, 8)));
-        assert_eq!(whole(32, 16), Some((8, 4)));
-        assert_eq!(whole(48, 16), Some((6, 2))); // 96 bits: a u128 string
-        assert_eq!(whole(40, 8), None); // one row a period
-        assert_eq!(whole(10, 8), None); // not whole vectors: `Period::new`
-        assert_eq!(whole(64, 16), None);
-        // Row 0's field of 5 bits: four low bits and the top one; 16 rows fill 80 bits.
-        let p = Period::new(5, 16, true).unwrap();
-        assert_eq!((p.low_bits & 0x1f, p.top_bits & 0x1f), (0xf, 0x10));
-        assert_eq!((p.low_bits | p.top_bits), (1u128 << 80) - 1);
-    }
-}
+#[path = "periodic_tests.rs"]
+mod tests;

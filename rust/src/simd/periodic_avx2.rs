@@ -14,7 +14,7 @@
 //! AVX2 but not AVX-512: there the older kernels run ([`fast_pext`]).
 
 use super::bit_string::{BitCounts, Bits};
-use super::periodic::{Periodic, Vectors};
+use super::periodic::{NoSums, Periodic, Vectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use std::arch::x86_64::*;
@@ -132,7 +132,7 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
     #[inline]
     #[target_feature(enable = "avx2,bmi2,popcnt")]
     pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
-        self.screen_any(data, periods, out)
+        self.screen_any(data, periods, out, &mut NoSums)
     }
 
     /// See `Periodic::diagnose_any`.
@@ -152,7 +152,7 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
         // One entry per `COUNTS`: both in one function ran f32 rows of 5 and
         // 10 6-11 % slower at AVX2 (`benches/results-short-rows.txt`,
         // "session 16: one entry per COUNTS").
-        self.diagnose_any::<COUNTS>(data, periods, counts, out, t)
+        self.diagnose_any::<COUNTS, NoSums>(data, periods, counts, out, (t, &mut NoSums))
     }
 }
 

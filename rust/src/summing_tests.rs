@@ -1,0 +1,121 @@
+//! The sums a kernel adds as it reads (`part_after` with the summed kernels)
+//! are the separate pass's (`digest::part`), and its verdicts the plain
+//! kernel's, at every level, for rows that start anywhere in a block.
+
+use super::*;
+use crate::kernel::{diagnose_bits_with, screen_bits_with};
+use crate::testing::uniform;
+
+/// Predictions mostly inside `[-1, 1]` (some rows candidates, some not), with a NaN.
+fn rows_of<T: Value + From<f32>>(rows: usize, n_m: usize, state: &mut u64) -> Vec<T> {
+    let mut v: Vec<T> = (0..rows * n_m)
+        .map(|_| T::from((uniform(state) * 2.3 - 1.15) as f32))
+        .collect();
+    if let Some(x) = v.get_mut(rows * n_m / 3) {
+        *x = T::from(f32::NAN);
+    }
+    v
+}
+
+/// Candidate words, tally and part of `rows` (instance `first_row` on) through
+/// `part_after`, with the summed kernels when `summed`, else the plain ones.
+fn run<T: Prediction + Value>(
+    isa: Isa,
+    m: Matrix<'_, T>,
+    (b, plan): (&SensorBounds, Option<&ScreenPlan>),
+    first_row: u64,
+    summed: bool,
+) -> (Vec<u64>, Tally, Part, usize) {
+    let mut words = vec![0u64; m.rows().div_ceil(64)];
+    let (mut tally, mut buf, mut fused) = (Tally::zeros(b.len()), Vec::new(), 0);
+    let part = part_after(
+        m,
+        first_row,
+        &mut buf,
+        summed && kernel_sums(isa, m, b),
+        |r0, r1, sum| {
+            let (mut sink, rows) = (BitSink::new(&mut words, r0), m.slice_rows(r0, r1));
+            let s = match (plan, summed && sum) {
+                (Some(p), true) => screen_bits_summed_with(isa, rows, b, p, &mut sink),
+                (None, true) => diagnose_bits_summed_with(isa, rows, b, None, &mut sink, &mut tally),
+                (Some(p), false) => {
+                    screen_bits_with(isa, rows, b, p, &mut sink);
+                    Summed::default()
+                }
+                (None, false) => {
+                    diagnose_bits_with(isa, rows, b, None, &mut sink, &mut tally);
+                    Summed::default()
+                }
+            };
+            sink.finish();
+            fused += s.rows;
+            s
+        },
+    );
+    (words, tally, part, fused)
+}
+
+/// Rows per run.
+const ROWS: usize = 3 * PIECE_ROWS + 37;
+
+/// Checks rows of `n_m` starting at several places in a block; the fewest
+/// rows the kernel summed itself in a run at AVX-512 (`ROWS` where it does not run).
+fn check<T: Prediction + Value + From<f32>>(n_m: usize, state: &mut u64) -> usize {
+    let b = SensorBounds::new(&vec![0.0; n_m], &vec![-1.0; n_m], &vec![1.0; n_m]).unwrap();
+    let plan = ScreenPlan::new(&b, &vec![0; n_m]);
+    let mut fused = ROWS;
+    // Rows crossing a block boundary, and pieces starting on and off a group.
+    let rows = ROWS;
+    let data = rows_of::<T>(rows, n_m, state);
+    let m = Matrix::row_major(&data, rows, n_m).unwrap();
+    for first_row in [
+        0,
+        1,
+        3,
+        8,
+        16 * 7,
+        BLOCK_ROWS as u64 - 1500,
+        5 * BLOCK_ROWS as u64 - 2 * PIECE_ROWS as u64 + 3,
+    ] {
+        let mut buf = Vec::new();
+        let want = digest::part(m, first_row, &mut buf);
+        for isa in Isa::available() {
+            for plan in [None, Some(&plan)] {
+                let plain = run(isa, m, (&b, plan), first_row, false);
+                let got = run(isa, m, (&b, plan), first_row, true);
+                let what = format!(
+                    "{isa:?}, rows of {n_m} {}, from {first_row}",
+                    std::any::type_name::<T>()
+                );
+                assert_eq!(got.2, want, "sums, {what}");
+                assert_eq!(plain.2, want, "sums of the plain pass, {what}");
+                assert_eq!(got.0, plain.0, "candidates, {what}");
+                assert_eq!(got.1, plain.1, "tally, {what}");
+                if isa == Isa::Avx512 {
+                    fused = fused.min(got.3);
+                }
+            }
+        }
+    }
+    fused
+}
+
+#[test]
+fn sums_taken_in_the_kernels_pass_are_the_separate_passes() {
+    let mut state = 0x5EED_00FC_0FFEu64;
+    for n_m in [1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 16, 20, 24, 33] {
+        let fused64 = check::<f64>(n_m, &mut state);
+        let fused32 = check::<f32>(n_m, &mut state);
+        // The periodic kernel sums where AVX-512 runs (rows of 5, 10 and 12
+        // have a period in either dtype), so the fused path is what is
+        // tested; and it sums all but a few rows wherever the rows start: a
+        // first piece up to a group (< 16 rows) and the rows after the last
+        // whole period (< 16).
+        if Isa::Avx512.supported() && [5, 10, 12].contains(&n_m) {
+            assert!(
+                fused64.min(fused32) >= ROWS - 32,
+                "rows of {n_m}: {fused64} and {fused32} of {ROWS} summed in the kernel"
+            );
+        }
+    }
+}
