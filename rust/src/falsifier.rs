@@ -250,7 +250,7 @@ impl Falsifier {
         // sensors: 21 blocks a slab, the last one, about 5 % of the work,
         // on one of 2 threads while the other waits).
         let threads = pool.current_num_threads().max(1);
-        let per_task = blocks_per_task::<T>(n_m, pending.is_some());
+        let per_task = blocks_per_task::<T>(n_m);
         let task_rows = per_task * BLOCK_ROWS;
         let slab_values = SLAB_BYTES / std::mem::size_of::<T>();
         let slab_rows = (slab_values / n_m).div_ceil(task_rows).max(1).next_multiple_of(threads) * task_rows;
@@ -355,15 +355,14 @@ type Task<'a> = (usize, (((&'a mut [u32], &'a mut [usize]), &'a mut [u64]), &'a 
 /// bench -- falsify_short`; see `docs/performance.md`).
 const TASK_BYTES: usize = 128 << 10;
 
-/// Blocks per task for rows of `n_m` values of `T`: one when summing (the
-/// checksum parts are per block), else enough for [`TASK_BYTES`].
-fn blocks_per_task<T>(n_m: usize, summing: bool) -> usize {
+/// Blocks per task for rows of `n_m` values of `T`: enough for
+/// [`TASK_BYTES`]. A task of 64 blocks or fewer lies in at most two
+/// checksum blocks, which one [`Part`] holds, so summing tasks are as long
+/// (one block each, until session 17, paid the per-call cost every 1,024
+/// rows: the in-pass checksum cost 1.2 times the falsifier alone from cache).
+fn blocks_per_task<T>(n_m: usize) -> usize {
     let block_bytes = BLOCK_ROWS * n_m.max(1) * std::mem::size_of::<T>();
-    if summing {
-        1
-    } else {
-        TASK_BYTES.div_ceil(block_bytes).clamp(1, 64)
-    }
+    TASK_BYTES.div_ceil(block_bytes).clamp(1, 64)
 }
 
 /// The tasks of a slab, `group` blocks each (see [`Task`]).
@@ -394,7 +393,7 @@ fn count_blocks(counts: &mut [usize], words: &[u64]) {
 }
 
 /// Runs in the caller's pool (on this thread when `serial`), in tasks of
-/// `group` blocks (one when summing); each block's candidate count into
+/// `group` blocks; each block's candidate count into
 /// `counts`, and, when summing, the checksum sums of its rows into its slot.
 fn diagnose_parallel<T: Prediction + Value>(
     m: Matrix<'_, T>,
@@ -405,15 +404,17 @@ fn diagnose_parallel<T: Prediction + Value>(
 ) -> Tally {
     let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    debug_assert!(group == 1 || sum_from.is_none());
     let task = |(mut t, mut buf): (Tally, Vec<T>), (k, (((o, counts), w), slots)): Task<'_>| {
         let first = k * group * BLOCK_ROWS;
         let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
         w.fill(0);
         let keep = !o.is_empty();
         match sum_from {
-            // Summed by the kernel as it reads them, or right after (in L2); one block a task.
+            // Summed by the kernel as it reads them, or right after (in L2).
             Some(base) => {
+                // The task's part in its first slot, the others empty (a task's
+                // rows lie in at most two checksum blocks).
+                slots.fill(Part::default());
                 let fused = summing::kernel_sums(isa, span, b);
                 slots[0] = summing::part_after(span, base + first as u64, &mut buf, fused, |r0, r1, sum| {
                     let mut sink = BitSink::new(w, r0);
@@ -460,7 +461,6 @@ fn screen_parallel<T: Prediction + Value>(
 ) {
     let (isa, rows) = (Isa::detect(), verdicts.0);
     let (sum_from, slots) = summing;
-    debug_assert!(group == 1 || sum_from.is_none());
     let task = |buf: &mut Vec<T>, (k, (((_, counts), w), slots)): Task<'_>| {
         let first = k * group * BLOCK_ROWS;
         let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
@@ -468,6 +468,7 @@ fn screen_parallel<T: Prediction + Value>(
         match sum_from {
             // As in `diagnose_parallel`.
             Some(base) => {
+                slots.fill(Part::default());
                 let fused = summing::kernel_sums(isa, span, b);
                 slots[0] = summing::part_after(span, base + first as u64, buf, fused, |r0, r1, sum| {
                     let (mut sink, rows) = (BitSink::new(w, r0), span.slice_rows(r0, r1));

@@ -148,3 +148,26 @@ fn an_interrupted_or_refused_chunk_leaves_the_digest_alone() {
         .unwrap();
     assert_eq!((d.blocks().to_vec(), d.partial()), separate(m));
 }
+
+#[test]
+fn tasks_of_several_blocks_sum_each_block_once_whatever_the_grouping() {
+    // Rows of one sensor: 16 blocks a task, fewer when a slab has too few for
+    // 8 threads, so the grouping changes from chunk to chunk and a slot left
+    // from an earlier chunk would be added again.
+    let (n_m, chunks) = (1, [70_000, 300_000, 70_000, 133_333, 9]);
+    let rows: usize = chunks.iter().sum();
+    let mut state = 0x0DD_B10C_5EEDu64;
+    let data: Vec<f64> = (0..rows * n_m).map(|_| uniform(&mut state) * 2.4 - 1.2).collect();
+    let all = Matrix::row_major(&data, rows, n_m).unwrap();
+    let want = separate(all);
+    for mode in [Mode::Screen, Mode::Diagnose] {
+        let (p, mut f, mut d) = (pool(8), falsifier(n_m, mode), RowDigest::new());
+        let mut s = 0;
+        for step in chunks {
+            f.update_digested(all.slice_rows(s, s + step), &p, &mut || false, &mut d)
+                .unwrap();
+            s += step;
+        }
+        assert_eq!((d.blocks().to_vec(), d.partial()), want, "{mode:?}");
+    }
+}

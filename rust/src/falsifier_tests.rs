@@ -56,7 +56,7 @@ fn result_is_independent_of_chunking_threads_and_mode() {
     // Chunks of several tasks of several blocks (short rows: one task reads
     // at least TASK_BYTES), on the pool (25,000 rows) and on this thread
     // (9,000), after larger chunks: every block counted afresh.
-    assert!(blocks_per_task::<f64>(n_m, false) > 1 && 9_000 * n_m < SERIAL_ELEMENTS);
+    assert!(blocks_per_task::<f64>(n_m) > 1 && 9_000 * n_m < SERIAL_ELEMENTS);
     assert!(25_000 * n_m > SERIAL_ELEMENTS);
     for rows in [9_000, 25_000] {
         for mode in [Mode::Diagnose, Mode::Screen] {
@@ -80,7 +80,7 @@ fn result_is_independent_of_chunking_threads_and_mode() {
 #[test]
 fn short_slabs_on_many_threads_give_the_same_result() {
     let (n, n_m) = (30 * BLOCK_ROWS + 11, 3);
-    assert!(blocks_per_task::<f64>(n_m, false) * 7 > n.div_ceil(BLOCK_ROWS) && n * n_m > SERIAL_ELEMENTS);
+    assert!(blocks_per_task::<f64>(n_m) * 7 > n.div_ceil(BLOCK_ROWS) && n * n_m > SERIAL_ELEMENTS);
     let data = predictions(n, n_m);
     let one = run(&data, n_m, n, 1, Mode::Diagnose);
     let expected: Vec<u64> = (0..n)
