@@ -67,7 +67,8 @@ use rayon::ThreadPool;
 pub const ALGORITHM: &str = "fletcher64x8/2";
 /// Instances per block: the unit a checkpoint records and names when it differs.
 pub const BLOCK_ROWS: usize = 65_536;
-/// Rows summed in one piece (one parallel task; the falsifier's kernel block).
+/// Rows summed in one piece by `RowDigest::update` (one parallel task), and
+/// the falsifier's block of candidate counts.
 pub const PIECE_ROWS: usize = 1024;
 /// Lanes of the checksum.
 pub const LANES: usize = 8;

@@ -4,7 +4,7 @@
 
 use super::medium;
 use super::checksum::Fletcher;
-use super::periodic::{Avx512Vectors, NoSums, Periodic};
+use super::periodic::{Avx512Vectors, NoSums, Periodic, SumVectors};
 use super::short::{takes, ShortRows};
 use crate::candidates::BitSink;
 use crate::kernel::{diagnose_impl, screen_impl, via_counts, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
@@ -261,20 +261,8 @@ fn diagnose_bits_pass<T: Prediction>(
     sink: &mut BitSink,
     t: &mut Tally,
 ) {
-    if let Some((kernel, data, whole)) = periodic(m, b) {
-        let rest = m.slice_rows(whole, m.rows());
-        let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
-        // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
-        // enabled; `data` holds the rows back to back.
-        let periods = whole / kernel.rows();
-        match head {
-            Some(h) => unsafe { kernel.diagnose::<true, _>(data, periods, h, sink, (t, &mut NoSums)) },
-            None => unsafe { kernel.diagnose::<false, _>(data, periods, &mut [], sink, (t, &mut NoSums)) },
-        }
-        if rest.rows() > 0 {
-            // SAFETY: as below (the rest is packed rows too).
-            unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };
-        }
+    if let Some(p) = periodic(m, b) {
+        diagnose_periodic(p, (m, b), counts, sink, (t, &mut NoSums));
     } else if takes(&m) {
         // SAFETY: AVX-512F and POPCNT are enabled; `takes` checked the row
         // width and that rows are contiguous; packed only if back to back.
@@ -331,21 +319,35 @@ pub fn diagnose_bits_summed<T: Prediction>(
     (t, sums): (&mut Tally, &mut Fletcher),
 ) -> usize {
     assert!(m.rows() < MAX_PASS_ROWS);
-    let Some((kernel, data, whole)) = periodic(m, b) else {
+    let Some(p) = periodic(m, b) else {
         diagnose_bits_pass(m, b, counts, sink, t);
         return 0;
     };
+    diagnose_periodic(p, (m, b), counts, sink, (t, sums))
+}
+
+/// The periodic kernel's whole periods of `m`, the rest by the short-row
+/// kernel, each vector read to `sums`; the rows in whole periods.
+#[inline]
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+fn diagnose_periodic<T: Prediction, S: SumVectors<T, Avx512Vectors>>(
+    (kernel, data, whole): (Periodic<T, Avx512Vectors>, &[T], usize),
+    (m, b): (Matrix<'_, T>, &SensorBounds),
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    (t, sums): (&mut Tally, &mut S),
+) -> usize {
     let rest = m.slice_rows(whole, m.rows());
     let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
     let periods = whole / kernel.rows();
     // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
     // enabled; `data` holds the rows back to back.
     match head {
-        Some(h) => unsafe { kernel.diagnose::<true, _>(data, periods, h, sink, (t, sums)) },
-        None => unsafe { kernel.diagnose::<false, _>(data, periods, &mut [], sink, (t, sums)) },
+        Some(h) => unsafe { kernel.diagnose::<true, S>(data, periods, h, sink, (t, sums)) },
+        None => unsafe { kernel.diagnose::<false, S>(data, periods, &mut [], sink, (t, sums)) },
     }
     if rest.rows() > 0 {
-        // SAFETY: as in `diagnose_bits_pass`.
+        // SAFETY: AVX-512F and POPCNT are enabled; the rest is packed rows too.
         unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };
     }
     whole
@@ -359,15 +361,28 @@ pub fn screen_bits_summed<T: Prediction>(
     sink: &mut BitSink,
     sums: &mut Fletcher,
 ) -> usize {
-    let Some((kernel, data, whole)) = periodic(m, b) else {
+    let Some(p) = periodic(m, b) else {
         screen_bits(m, b, plan, sink);
         return 0;
     };
-    // SAFETY: as in `diagnose_bits_summed`.
+    screen_periodic(p, (m, b), sink, sums)
+}
+
+/// As [`diagnose_periodic`], screening.
+#[inline]
+#[target_feature(enable = "avx512f,popcnt")]
+fn screen_periodic<T: Prediction, S: SumVectors<T, Avx512Vectors>>(
+    (kernel, data, whole): (Periodic<T, Avx512Vectors>, &[T], usize),
+    (m, b): (Matrix<'_, T>, &SensorBounds),
+    sink: &mut BitSink,
+    sums: &mut S,
+) -> usize {
+    // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
+    // enabled; `data` holds the rows back to back.
     unsafe { kernel.screen(data, whole / kernel.rows(), sink, sums) };
     let rest = m.slice_rows(whole, m.rows());
     if rest.rows() > 0 {
-        // SAFETY: as in `screen_bits`.
+        // SAFETY: AVX-512F and POPCNT are enabled; the rest is packed rows too.
         unsafe { ShortRows::<T>::new(b, true).screen(rest, sink) };
     }
     whole
@@ -376,15 +391,8 @@ pub fn screen_bits_summed<T: Prediction>(
 /// Candidate bits of the rows of `m` into `sink`.
 #[target_feature(enable = "avx512f,popcnt")]
 pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, sink: &mut BitSink) {
-    if let Some((kernel, data, whole)) = periodic(m, b) {
-        // SAFETY: AVX-512F, AVX-512BW, POPCNT and BMI2 (checked by `periodic`) are
-        // enabled; `data` holds the rows back to back.
-        unsafe { kernel.screen(data, whole / kernel.rows(), sink, &mut NoSums) };
-        let rest = m.slice_rows(whole, m.rows());
-        if rest.rows() > 0 {
-            // SAFETY: as below (the rest is packed rows too).
-            unsafe { ShortRows::<T>::new(b, true).screen(rest, sink) };
-        }
+    if let Some(p) = periodic(m, b) {
+        screen_periodic(p, (m, b), sink, &mut NoSums);
     } else if takes(&m) {
         // SAFETY: as in `diagnose_bits`.
         unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, sink) };
