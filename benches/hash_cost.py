@@ -2,16 +2,18 @@
 
 A checkpointed run sums every row it falsifies into the block checksum
 ``fletcher64x8/2`` (``rust/src/digest.rs``), in the falsifier's own pass
-(``Falsifier.update(chunk, digest=...)``, ``rust/src/summing.rs``): where
-the periodic kernel screens the rows (rows of up to 12 sensors, and some
-wider, at AVX-512) it adds each vector it loads to the sums as it compares
-it; other rows are summed 128 KiB at a time by the thread that has just
-screened them, while they are in that core's L2 cache. This times, side by side in one run, the same in-memory chunks through
+(``Falsifier.update(chunk, digest=...)``, ``rust/src/summing.rs``): at
+AVX-512, where the periodic kernel screens the rows (rows of up to 12
+sensors, and some wider) it adds each vector it loads to the sums as it
+compares it, and where a kernel reads a row at a time (rows of three or
+more vectors) it adds each 64-byte group once the rows read so far fill it,
+from L1; other rows are summed 128 KiB at a time by the thread that has
+just screened them, while they are in that core's L2 cache. This times, side by side in one run, the same in-memory chunks through
 
 - "off": the falsifier alone;
 - "on":  the falsifier feeding the checksum (what a checkpointed run does);
 
-for float64 and float32, n_m in {5, 10, 50}, the worst case (every instance a
+for float64 and float32, n_m in {5, 10, 16, 50}, the worst case (every instance a
 candidate: no early exit) and the typical one (95 % falsified, iid residuals),
 screening (``diagnostics=False``, the fastest pass, so the checksum's largest
 share) and diagnostics. The two variants alternate in every round; the table
@@ -210,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=9, help="alternating rounds per case (default 9)")
     ap.add_argument("--file-mbytes", type=int, default=1000, help="data per streamed file, MB (default 1000)")
     ap.add_argument("--cold-repeats", type=int, default=5, help="rounds per cold streaming case (default 5)")
-    ap.add_argument("--nm", type=int, nargs="+", default=[5, 10, 50])
+    ap.add_argument("--nm", type=int, nargs="+", default=[5, 10, 16, 50])
     args = ap.parse_args(argv)
     start = time.perf_counter()
     print(f"CPU: {cpu_model()}; {_core.get_num_threads()} threads; {load()}")

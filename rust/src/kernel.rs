@@ -221,7 +221,7 @@ pub(crate) fn screen_impl<T: Prediction>(
     b: &SensorBounds,
     plan: &ScreenPlan,
     out: &mut [u32],
-    row_kernel: impl Fn(&[T]) -> bool,
+    mut row_kernel: impl FnMut(&[T]) -> bool,
 ) {
     for (i, flag) in out.iter_mut().enumerate() {
         let rejected = match m.row_slice(i) {

@@ -1,11 +1,17 @@
 //! A checkpointed run's pass over its rows: every row falsified and added to
 //! its block's checksum ([`crate::digest`]) once, while it is in cache.
 //!
-//! Where the kernel reads the rows as whole 64-byte vectors (the periodic
-//! kernel for short rows, at AVX-512), each vector it loads is one group of
-//! the checksum, so the kernel adds it to the sums as it compares it: the
-//! additions fill gaps in the kernel's own work and nothing is read twice.
-//! Other rows are summed right after the kernel has read them, from L2.
+//! At AVX-512 the kernel sums the rows itself, in its own pass:
+//! - where it reads the rows as whole 64-byte vectors (the periodic kernel
+//!   for short rows), each vector it loads is one group of the checksum, so
+//!   it adds it to the sums as it compares it: nothing is read twice;
+//! - where it reads a row at a time (rows of three or more vectors), it adds
+//!   each group once the rows read so far fill it, reloaded from L1
+//!   (`checksum::FletcherRows`).
+//!
+//! The additions fill gaps in the kernel's own work. Other rows (rows of one
+//! or two vectors that no period takes, every row at AVX2 and below) are
+//! summed right after the kernel has read them, from L2.
 
 use crate::candidates::BitSink;
 use crate::digest::{self, add_groups, first_unit, Groups, Part, Value, BLOCK_ROWS, PIECE_ROWS, STEP_UNITS};
@@ -42,6 +48,17 @@ pub fn diagnose_bits_summed_with<T: Prediction>(
             Summed { rows, sums: f.sums() }
         };
     }
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx2 && isa.supported() {
+        use crate::simd::{avx2, checksum::{Fletcher2, GroupSums}};
+        assert!(m.cols() == b.len() && counts.as_ref().is_none_or(|c| c.len() == m.rows()));
+        // SAFETY: the CPU runs AVX2 and POPCNT (checked by `supported`).
+        return unsafe {
+            let mut f = Fletcher2::new();
+            let rows = avx2::diagnose_bits_summed(m, b, counts, sink, (tally, &mut f));
+            Summed { rows, sums: f.lane_sums() }
+        };
+    }
     kernel::diagnose_bits_with(isa, m, b, counts, sink, tally);
     Summed::default()
 }
@@ -65,17 +82,32 @@ pub fn screen_bits_summed_with<T: Prediction>(
             Summed { rows, sums: f.sums() }
         };
     }
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx2 && isa.supported() {
+        use crate::simd::{avx2, checksum::{Fletcher2, GroupSums}};
+        assert!(m.cols() == b.len(), "one column per sensor");
+        // SAFETY: the CPU runs AVX2 and POPCNT (checked by `supported`).
+        return unsafe {
+            let mut f = Fletcher2::new();
+            let rows = avx2::screen_bits_summed(m, (b, plan), sink, &mut f);
+            Summed { rows, sums: f.lane_sums() }
+        };
+    }
     kernel::screen_bits_with(isa, m, b, plan, sink);
     Summed::default()
 }
 
 /// Whether the summed kernels at `isa` sum rows `m` themselves (every row
-/// but those after their last whole period), so that the rows need not stay
-/// in cache for [`part_after`] to sum them.
+/// but those after their last whole period or group), so that the rows need
+/// not stay in cache for [`part_after`] to sum them.
 pub fn kernel_sums<T: Prediction>(isa: Isa, m: Matrix<'_, T>, b: &SensorBounds) -> bool {
     #[cfg(target_arch = "x86_64")]
     if isa == Isa::Avx512 && isa.supported() {
-        return crate::simd::avx512::periodic_takes(m, b);
+        return crate::simd::avx512::kernel_sums(m, b);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx2 && isa.supported() {
+        return crate::simd::avx2::kernel_sums(m, b);
     }
     let _ = (isa, m, b);
     false

@@ -59,11 +59,12 @@ fn run<T: Prediction + Value>(
 const ROWS: usize = 3 * PIECE_ROWS + 37;
 
 /// Checks rows of `n_m` starting at several places in a block; the fewest
-/// rows the kernel summed itself in a run at AVX-512 (`ROWS` where it does not run).
-fn check<T: Prediction + Value + From<f32>>(n_m: usize, state: &mut u64) -> usize {
+/// rows the kernel summed itself in a run at AVX-512 and at AVX2 (`ROWS`
+/// where the level does not run).
+fn check<T: Prediction + Value + From<f32>>(n_m: usize, state: &mut u64) -> [usize; 2] {
     let b = SensorBounds::new(&vec![0.0; n_m], &vec![-1.0; n_m], &vec![1.0; n_m]).unwrap();
     let plan = ScreenPlan::new(&b, &vec![0; n_m]);
-    let mut fused = ROWS;
+    let mut fused = [ROWS; 2];
     // Rows crossing a block boundary, and pieces starting on and off a group.
     let rows = ROWS;
     let data = rows_of::<T>(rows, n_m, state);
@@ -91,8 +92,10 @@ fn check<T: Prediction + Value + From<f32>>(n_m: usize, state: &mut u64) -> usiz
                 assert_eq!(plain.2, want, "sums of the plain pass, {what}");
                 assert_eq!(got.0, plain.0, "candidates, {what}");
                 assert_eq!(got.1, plain.1, "tally, {what}");
-                if isa == Isa::Avx512 {
-                    fused = fused.min(got.3);
+                match isa {
+                    Isa::Avx512 => fused[0] = fused[0].min(got.3),
+                    Isa::Avx2 => fused[1] = fused[1].min(got.3),
+                    Isa::Portable => assert_eq!(got.3, 0, "{what}"),
                 }
             }
         }
@@ -103,18 +106,26 @@ fn check<T: Prediction + Value + From<f32>>(n_m: usize, state: &mut u64) -> usiz
 #[test]
 fn sums_taken_in_the_kernels_pass_are_the_separate_passes() {
     let mut state = 0x5EED_00FC_0FFEu64;
-    for n_m in [1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 16, 20, 24, 33] {
+    for n_m in [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 17, 20, 24, 31, 33, 40, 50, 63, 64, 65, 130, 201] {
         let fused64 = check::<f64>(n_m, &mut state);
         let fused32 = check::<f32>(n_m, &mut state);
-        // The periodic kernel sums where AVX-512 runs (rows of 5, 10 and 12
-        // have a period in either dtype), so the fused path is what is
-        // tested; and it sums all but a few rows wherever the rows start: a
+        // The kernels sum every width of rows stored back to back: at
+        // AVX-512 the periodic kernel, the short-row kernels and the
+        // row-at-a-time kernels; at AVX2 the periodic kernel (rows of up to
+        // eight sensors and those with a period, where `pext` is fast) and the
+        // long-row kernel (rows of more than eight). So the fused path is what
+        // is tested; and they sum all but a few rows wherever the rows start: a
         // first piece up to a group (< 16 rows) and the rows after the last
-        // whole period (< 16).
-        if Isa::Avx512.supported() && [5, 10, 12].contains(&n_m) {
+        // whole period or group (< 16).
+        let levels = [
+            Isa::Avx512.supported(),
+            Isa::Avx2.supported() && (n_m > 8 || crate::simd::periodic_avx2::fast_pext()),
+        ];
+        for (level, (runs, name)) in levels.into_iter().zip(["AVX-512", "AVX2"]).enumerate() {
+            let (f64_rows, f32_rows) = (fused64[level], fused32[level]);
             assert!(
-                fused64.min(fused32) >= ROWS - 32,
-                "rows of {n_m}: {fused64} and {fused32} of {ROWS} summed in the kernel"
+                !runs || f64_rows.min(f32_rows) >= ROWS - 32,
+                "{name}, rows of {n_m}: {f64_rows} and {f32_rows} of {ROWS} summed in the kernel"
             );
         }
     }

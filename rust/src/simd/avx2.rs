@@ -6,8 +6,9 @@
 //! f32 of 16, 32 and 48: `Period::whole_rows`), take the periodic kernel instead
 //! (`periodic_avx2`) when the bits are asked for, as `falsify` does.
 
+use super::checksum::{Fletcher2, FletcherRows, RowsRead};
 use super::long_avx2;
-use super::periodic::Periodic;
+use super::periodic::{NoSums, Periodic, SumVectors};
 use super::periodic_avx2::{fast_pext, Avx2Vectors};
 use super::short_avx2::{takes, ShortRows4};
 use crate::candidates::BitSink;
@@ -35,23 +36,55 @@ fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
 
 #[target_feature(enable = "avx2,popcnt")]
 pub fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
+    diagnose_rows(m, b, out, (t, &mut NoSums))
+}
+
+/// [`diagnose`], telling `sums` each row the long-row kernel has read.
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+fn diagnose_rows<T: Prediction, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    (t, sums): (&mut Tally, &mut S),
+) {
     if takes(&m) {
         // SAFETY: AVX2 and POPCNT are enabled; `takes` checked the row width
         // and that rows are contiguous.
         unsafe { ShortRows4::new(b).diagnose(m, out, t) };
     } else {
         // SAFETY: AVX2 and POPCNT are enabled.
-        unsafe { long_avx2::diagnose(m, b, out, t) }
+        unsafe { long_avx2::diagnose(m, b, out, (t, sums)) }
     }
 }
 
 #[target_feature(enable = "avx2,popcnt")]
 pub fn screen<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, out: &mut [u32]) {
+    screen_rows(m, b, plan, out, &mut NoSums)
+}
+
+/// [`screen`], telling `sums` each row the long-row kernel has read.
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+fn screen_rows<T: Prediction, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    plan: &ScreenPlan,
+    out: &mut [u32],
+    sums: &mut S,
+) {
     if takes(&m) {
         // SAFETY: as in `diagnose`.
         unsafe { ShortRows4::new(b).screen(m, out) };
     } else {
-        screen_impl(m, b, plan, out, |row| row_rejected(row, b))
+        let mut read = *sums;
+        screen_impl(m, b, plan, out, |row| {
+            let rejected = row_rejected(row, b);
+            // SAFETY: AVX2 is enabled.
+            unsafe { read.rows_read(row.as_ptr_range().end as *const u8) };
+            rejected
+        });
+        *sums = read;
     }
 }
 
@@ -64,8 +97,7 @@ fn periodic<'a, T: Prediction>(
     m: Matrix<'a, T>,
     b: &SensorBounds,
 ) -> Option<(Periodic<T, Avx2Vectors>, &'a [T], usize)> {
-    let data = m.packed_rows()?;
-    T::period(b).or(T::whole_period(b)).filter(|_| fast_pext())?;
+    let data = m.packed_rows().filter(|_| periodic_takes(m, b))?;
     // SAFETY: AVX2 is enabled; a period takes the width.
     let kernel = unsafe { Periodic::<T, Avx2Vectors>::new(b) };
     let whole = m.rows() - m.rows() % kernel.rows();
@@ -82,31 +114,128 @@ pub fn diagnose_bits<T: Prediction>(
     sink: &mut BitSink,
     t: &mut Tally,
 ) {
+    diagnose_bits_adding(m, b, counts, sink, (t, &mut NoSums, &mut NoSums));
+}
+
+/// [`diagnose_bits`] that also adds rows to `sums` (empty) as it reads them
+/// (see `summing::part_after`): the periodic kernel's whole vectors, or the
+/// groups that the rows of the long-row kernel fill ([`FletcherRows`]);
+/// rows `0..n` for the `n` returned (0 where neither kernel reads the rows,
+/// or they are not stored back to back).
+#[target_feature(enable = "avx2,popcnt")]
+pub fn diagnose_bits_summed<T: Prediction>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    (t, sums): (&mut Tally, &mut Fletcher2),
+) -> usize {
+    match rows_summed(m, b) {
+        Some((mut read, n)) => {
+            diagnose_bits_adding(m, b, counts, sink, (t, &mut NoSums, &mut read));
+            *sums = read.sums();
+            n
+        }
+        None => diagnose_bits_adding(m, b, counts, sink, (t, sums, &mut NoSums)),
+    }
+}
+
+/// [`diagnose_bits`], the periodic kernel's vectors to `vectors` and the
+/// long-row kernel's rows to `rows`; the rows in whole periods.
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+fn diagnose_bits_adding<T: Prediction, V: SumVectors<T, Avx2Vectors>, R: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    counts: Option<&mut [u32]>,
+    sink: &mut BitSink,
+    (t, vectors, rows): (&mut Tally, &mut V, &mut R),
+) -> usize {
     let Some((kernel, data, whole)) = periodic(m, b) else {
-        return via_counts(m.rows(), counts, sink, |r0, r1, out| diagnose(m.slice_rows(r0, r1), b, out, t));
+        via_counts(m.rows(), counts, sink, |r0, r1, out| {
+            diagnose_rows(m.slice_rows(r0, r1), b, out, (&mut *t, &mut *rows))
+        });
+        return 0;
     };
     let (head, tail) = counts.map(|c| c.split_at_mut(whole)).unzip();
     // SAFETY: AVX2, BMI2 (checked by `periodic`) and POPCNT are enabled;
     // `data` holds the rows back to back.
     let periods = whole / kernel.rows();
     match head {
-        Some(h) => unsafe { kernel.diagnose::<true>(data, periods, h, sink, t) },
-        None => unsafe { kernel.diagnose::<false>(data, periods, &mut [], sink, t) },
+        Some(h) => unsafe { kernel.diagnose::<true, V>(data, periods, h, sink, (t, vectors)) },
+        None => unsafe { kernel.diagnose::<false, V>(data, periods, &mut [], sink, (t, vectors)) },
     }
     // Fewer rows than a period.
     let rest = m.slice_rows(whole, m.rows());
     via_counts(rest.rows(), tail, sink, |r0, r1, out| diagnose(rest.slice_rows(r0, r1), b, out, t));
+    whole
+}
+
+/// Whether the periodic kernel takes rows `m`: stored back to back, a
+/// period (or whole vectors) for their width, and a fast `pext`.
+fn periodic_takes<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds) -> bool {
+    m.packed_rows().is_some() && T::period(b).or(T::whole_period(b)).is_some() && fast_pext()
+}
+
+/// Whether the summed kernels sum rows `m` as they read them: rows stored
+/// back to back that the periodic kernel or the long-row kernel reads.
+pub fn kernel_sums<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds) -> bool {
+    periodic_takes(m, b) || (m.packed_rows().is_some() && !takes(&m))
+}
+
+/// The long-row kernel's sums of rows `m` and the rows it will sum, where
+/// it reads them (packed rows the periodic kernel does not take).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn rows_summed<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds) -> Option<(FletcherRows<Fletcher2>, usize)> {
+    let data = m.packed_rows().filter(|_| !periodic_takes(m, b) && !takes(&m))?;
+    // SAFETY: AVX2 is enabled.
+    let sums = unsafe { Fletcher2::new() };
+    Some(FletcherRows::new(sums, data.as_ptr() as *const u8, m.rows(), std::mem::size_of_val(m.row_slice(0)?)))
 }
 
 /// Candidate bits of the rows of `m` into `sink`.
 #[target_feature(enable = "avx2,popcnt")]
 pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, sink: &mut BitSink) {
+    screen_bits_adding(m, (b, plan), sink, (&mut NoSums, &mut NoSums));
+}
+
+/// [`screen_bits`] that also adds rows to `sums`, as [`diagnose_bits_summed`].
+#[target_feature(enable = "avx2,popcnt")]
+pub fn screen_bits_summed<T: Prediction>(
+    m: Matrix<'_, T>,
+    (b, plan): (&SensorBounds, &ScreenPlan),
+    sink: &mut BitSink,
+    sums: &mut Fletcher2,
+) -> usize {
+    match rows_summed(m, b) {
+        Some((mut read, n)) => {
+            screen_bits_adding(m, (b, plan), sink, (&mut NoSums, &mut read));
+            *sums = read.sums();
+            n
+        }
+        None => screen_bits_adding(m, (b, plan), sink, (sums, &mut NoSums)),
+    }
+}
+
+/// [`screen_bits`], adding as [`diagnose_bits_adding`].
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+fn screen_bits_adding<T: Prediction, V: SumVectors<T, Avx2Vectors>, R: RowsRead>(
+    m: Matrix<'_, T>,
+    (b, plan): (&SensorBounds, &ScreenPlan),
+    sink: &mut BitSink,
+    (vectors, rows): (&mut V, &mut R),
+) -> usize {
     let mut start = 0;
     if let Some((kernel, data, whole)) = periodic(m, b) {
-        // SAFETY: as in `diagnose_bits`.
-        unsafe { kernel.screen(data, whole / kernel.rows(), sink) };
+        // SAFETY: as in `diagnose_bits_adding`.
+        unsafe { kernel.screen(data, whole / kernel.rows(), sink, vectors) };
         start = whole;
     }
     let rest = m.slice_rows(start, m.rows());
-    via_counts(rest.rows(), None, sink, |r0, r1, out| screen(rest.slice_rows(r0, r1), b, plan, out));
+    via_counts(rest.rows(), None, sink, |r0, r1, out| {
+        screen_rows(rest.slice_rows(r0, r1), b, plan, out, &mut *rows)
+    });
+    start
 }

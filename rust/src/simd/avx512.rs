@@ -3,7 +3,7 @@
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
 use super::medium;
-use super::checksum::Fletcher;
+use super::checksum::{Fletcher, FletcherRows, RowsRead};
 use super::periodic::{Avx512Vectors, NoSums, Periodic, SumVectors};
 use super::short::{takes, ShortRows};
 use crate::candidates::BitSink;
@@ -248,25 +248,26 @@ pub(crate) fn diagnose_bits_in_passes<T: Prediction>(
     for r0 in (0..m.rows().max(1)).step_by(pass_rows) {
         let r1 = (r0 + pass_rows).min(m.rows());
         let part = counts.as_deref_mut().map(|c| &mut c[r0..r1]);
-        diagnose_bits_pass(m.slice_rows(r0, r1), b, part, sink, t);
+        diagnose_bits_pass(m.slice_rows(r0, r1), b, part, sink, (t, &mut NoSums));
     }
 }
 
-/// [`diagnose_bits`] over at most `MAX_PASS_ROWS` rows.
+/// [`diagnose_bits`] over at most `MAX_PASS_ROWS` rows, telling `sums` each
+/// row the row-at-a-time kernels have read.
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
-fn diagnose_bits_pass<T: Prediction>(
+fn diagnose_bits_pass<T: Prediction, S: RowsRead>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     counts: Option<&mut [u32]>,
     sink: &mut BitSink,
-    t: &mut Tally,
+    (t, sums): (&mut Tally, &mut S),
 ) {
     if let Some(p) = periodic(m, b) {
         diagnose_periodic(p, (m, b), counts, sink, (t, &mut NoSums));
     } else if takes(&m) {
         // SAFETY: AVX-512F and POPCNT are enabled; `takes` checked the row
         // width and that rows are contiguous; packed only if back to back.
-        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).diagnose(m, counts, sink, t) };
+        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).diagnose(m, counts, sink, (t, sums)) };
     } else {
         let contiguous = m.rows() == 0 || m.row_slice(0).is_some();
         match medium::vectors::<T>(m.cols()).filter(|_| contiguous) {
@@ -275,12 +276,12 @@ fn diagnose_bits_pass<T: Prediction>(
             Some(v) => via_counts(m.rows(), counts, sink, |r0, r1, out| {
                 let rows = m.slice_rows(r0, r1);
                 match v {
-                    3 => unsafe { medium::diagnose::<T, 3>(rows, b, out, t) },
-                    4 => unsafe { medium::diagnose::<T, 4>(rows, b, out, t) },
-                    5 => unsafe { medium::diagnose::<T, 5>(rows, b, out, t) },
-                    6 => unsafe { medium::diagnose::<T, 6>(rows, b, out, t) },
-                    7 => unsafe { medium::diagnose::<T, 7>(rows, b, out, t) },
-                    _ => unsafe { medium::diagnose::<T, 8>(rows, b, out, t) },
+                    3 => unsafe { medium::diagnose::<T, 3, S>(rows, b, out, (t, sums)) },
+                    4 => unsafe { medium::diagnose::<T, 4, S>(rows, b, out, (t, sums)) },
+                    5 => unsafe { medium::diagnose::<T, 5, S>(rows, b, out, (t, sums)) },
+                    6 => unsafe { medium::diagnose::<T, 6, S>(rows, b, out, (t, sums)) },
+                    7 => unsafe { medium::diagnose::<T, 7, S>(rows, b, out, (t, sums)) },
+                    _ => unsafe { medium::diagnose::<T, 8, S>(rows, b, out, (t, sums)) },
                 }
             }),
             None => {
@@ -292,12 +293,15 @@ fn diagnose_bits_pass<T: Prediction>(
                         // Candidates in a row so far: the verdict comes first after two
                         // (after one, most falsified rows with candidates scattered
                         // among them paid for a test they did not need).
-                        let mut run = 0u32;
+                        let (mut run, mut read) = (0u32, *sums);
                         diagnose_impl(m.slice_rows(s0, s1), b, part, t, |row, b, _| {
                             let verdict = diagnose_row(row, b, &mut per_sensor, run >= 2);
                             run = if verdict.0 == 0 { run.saturating_add(1) } else { 0 };
+                            // SAFETY: AVX-512F is enabled.
+                            unsafe { read.rows_read(row.as_ptr_range().end as *const u8) };
                             verdict
                         });
+                        *sums = read;
                         per_sensor.flush::<T>(&mut t.per_sensor);
                     }
                 });
@@ -306,10 +310,11 @@ fn diagnose_bits_pass<T: Prediction>(
     }
 }
 
-/// [`diagnose_bits`] over fewer than `MAX_PASS_ROWS` rows that also adds the
-/// rows the periodic kernel reads, as whole vectors, to `sums` (see
-/// `summing::part_after`): rows `0..n` for the `n` returned (0 where rows of
-/// this width have no period).
+/// [`diagnose_bits`] over fewer than `MAX_PASS_ROWS` rows that also adds
+/// rows to `sums` (empty) as it reads them (see `summing::part_after`): the
+/// periodic kernel's whole vectors, or the groups that the rows of a
+/// row-at-a-time kernel fill ([`FletcherRows`]); rows `0..n` for the `n`
+/// returned (0 for rows not stored back to back).
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
 pub fn diagnose_bits_summed<T: Prediction>(
     m: Matrix<'_, T>,
@@ -319,11 +324,37 @@ pub fn diagnose_bits_summed<T: Prediction>(
     (t, sums): (&mut Tally, &mut Fletcher),
 ) -> usize {
     assert!(m.rows() < MAX_PASS_ROWS);
-    let Some(p) = periodic(m, b) else {
-        diagnose_bits_pass(m, b, counts, sink, t);
-        return 0;
-    };
-    diagnose_periodic(p, (m, b), counts, sink, (t, sums))
+    if let Some(p) = periodic(m, b) {
+        return diagnose_periodic(p, (m, b), counts, sink, (t, sums));
+    }
+    match rows_summed(m, b) {
+        Some((mut read, n)) => {
+            diagnose_bits_pass(m, b, counts, sink, (t, &mut read));
+            *sums = read.sums();
+            n
+        }
+        None => {
+            diagnose_bits_pass(m, b, counts, sink, (t, &mut NoSums));
+            0
+        }
+    }
+}
+
+/// Whether the summed kernels sum rows `m` as they read them: rows stored
+/// back to back (the periodic kernel's, and those the other kernels read).
+pub fn kernel_sums<T: Prediction>(m: Matrix<'_, T>, _b: &SensorBounds) -> bool {
+    m.packed_rows().is_some()
+}
+
+/// The row-at-a-time kernels' sums of rows `m` and the rows they will sum,
+/// where they sum them (packed rows the periodic kernel does not take).
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn rows_summed<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds) -> Option<(FletcherRows<Fletcher>, usize)> {
+    let data = m.packed_rows().filter(|_| !periodic_takes(m, b))?;
+    // SAFETY: AVX-512F is enabled.
+    let sums = unsafe { Fletcher::new() };
+    Some(FletcherRows::new(sums, data.as_ptr() as *const u8, m.rows(), std::mem::size_of_val(m.row_slice(0)?)))
 }
 
 /// The periodic kernel's whole periods of `m`, the rest by the short-row
@@ -348,7 +379,7 @@ fn diagnose_periodic<T: Prediction, S: SumVectors<T, Avx512Vectors>>(
     }
     if rest.rows() > 0 {
         // SAFETY: AVX-512F and POPCNT are enabled; the rest is packed rows too.
-        unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, t) };
+        unsafe { ShortRows::<T>::new(b, true).diagnose(rest, tail, sink, (t, &mut NoSums)) };
     }
     whole
 }
@@ -361,11 +392,20 @@ pub fn screen_bits_summed<T: Prediction>(
     sink: &mut BitSink,
     sums: &mut Fletcher,
 ) -> usize {
-    let Some(p) = periodic(m, b) else {
-        screen_bits(m, b, plan, sink);
-        return 0;
-    };
-    screen_periodic(p, (m, b), sink, sums)
+    if let Some(p) = periodic(m, b) {
+        return screen_periodic(p, (m, b), sink, sums);
+    }
+    match rows_summed(m, b) {
+        Some((mut read, n)) => {
+            screen_rows(m, (b, plan), sink, &mut read);
+            *sums = read.sums();
+            n
+        }
+        None => {
+            screen_rows(m, (b, plan), sink, &mut NoSums);
+            0
+        }
+    }
 }
 
 /// As [`diagnose_periodic`], screening.
@@ -383,7 +423,7 @@ fn screen_periodic<T: Prediction, S: SumVectors<T, Avx512Vectors>>(
     let rest = m.slice_rows(whole, m.rows());
     if rest.rows() > 0 {
         // SAFETY: AVX-512F and POPCNT are enabled; the rest is packed rows too.
-        unsafe { ShortRows::<T>::new(b, true).screen(rest, sink) };
+        unsafe { ShortRows::<T>::new(b, true).screen(rest, sink, &mut NoSums) };
     }
     whole
 }
@@ -393,12 +433,34 @@ fn screen_periodic<T: Prediction, S: SumVectors<T, Avx512Vectors>>(
 pub fn screen_bits<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, plan: &ScreenPlan, sink: &mut BitSink) {
     if let Some(p) = periodic(m, b) {
         screen_periodic(p, (m, b), sink, &mut NoSums);
-    } else if takes(&m) {
+    } else {
+        screen_rows(m, (b, plan), sink, &mut NoSums);
+    }
+}
+
+/// [`screen_bits`] of rows the periodic kernel does not take, telling `sums`
+/// each row the row-at-a-time kernel has read.
+#[inline]
+#[target_feature(enable = "avx512f,popcnt")]
+fn screen_rows<T: Prediction, S: RowsRead>(
+    m: Matrix<'_, T>,
+    (b, plan): (&SensorBounds, &ScreenPlan),
+    sink: &mut BitSink,
+    sums: &mut S,
+) {
+    if takes(&m) {
         // SAFETY: as in `diagnose_bits`.
-        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, sink) };
+        unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, sink, sums) };
     } else {
         via_counts(m.rows(), None, sink, |r0, r1, out| {
-            screen_impl(m.slice_rows(r0, r1), b, plan, out, |row| row_rejected(row, b))
+            let mut read = *sums;
+            screen_impl(m.slice_rows(r0, r1), b, plan, out, |row| {
+                let rejected = row_rejected(row, b);
+                // SAFETY: AVX-512F is enabled.
+                unsafe { read.rows_read(row.as_ptr_range().end as *const u8) };
+                rejected
+            });
+            *sums = read;
         })
     }
 }

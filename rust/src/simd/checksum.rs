@@ -22,6 +22,7 @@
 //! all the checksum costs (no load, nothing read twice).
 
 use super::periodic::{Avx512Vectors, Vectors};
+use super::periodic_avx2::Avx2Vectors;
 use crate::kernel::Prediction;
 use std::arch::x86_64::*;
 
@@ -135,15 +136,116 @@ impl Fletcher {
     }
 }
 
-impl<T: Prediction> SumVectors<T, Avx512Vectors> for Fletcher {
+impl Fletcher {
+    /// Adds the next group `x` (the recurrence of `step!`, on fields).
+    ///
+    /// # Safety
+    /// AVX-512F is available.
     #[inline(always)]
-    unsafe fn add(&mut self, x: T::V512) {
-        // The recurrence of `step!`, on fields.
-        let x = T::bits512(x);
+    unsafe fn add_group(&mut self, x: __m512i) {
         self.s1 = _mm512_add_epi64(self.s1, x);
         self.h1 = _mm512_add_epi64(self.h1, _mm512_srli_epi64::<32>(x));
         self.s2 = _mm512_add_epi64(self.s2, self.s1);
         self.h2 = _mm512_add_epi64(self.h2, self.h1);
+    }
+}
+
+impl<T: Prediction> SumVectors<T, Avx512Vectors> for Fletcher {
+    #[inline(always)]
+    unsafe fn add(&mut self, x: T::V512) {
+        self.add_group(T::bits512(x));
+    }
+}
+
+/// What a row-at-a-time kernel does after each row it has read: nothing
+/// ([`NoSums`]), or add to the checksum the groups that the rows read so far
+/// fill ([`FletcherRows`]). Rows of three or more vectors do not line up with
+/// the checksum's 64-byte groups (a row of 50 float64 is 6.25 groups), so the
+/// kernel cannot hand over the vectors it compares; it reloads each group
+/// once its last byte has been read, from L1, in the same pass. Summed after
+/// the kernel instead (128 KiB at a time, from L2), rows of 50 cost
+/// 1.14-1.26 of the kernel's CPU time, and 0.99-1.05 this way (AMD EPYC,
+/// CPU family 25, `benches/results-hash-cost.txt`, session 18).
+pub trait RowsRead: Copy {
+    /// The rows read so far end at address `end`.
+    ///
+    /// # Safety
+    /// The sums' level is available (for [`FletcherRows`]).
+    unsafe fn rows_read(&mut self, end: *const u8);
+}
+
+impl RowsRead for NoSums {
+    #[inline(always)]
+    unsafe fn rows_read(&mut self, _: *const u8) {}
+}
+
+/// Running sums of whole groups at one vector level: [`Fletcher`]
+/// (AVX-512) or [`Fletcher2`] (AVX2).
+pub trait GroupSums: Copy {
+    /// Adds the group of 64 bytes at `p`.
+    ///
+    /// # Safety
+    /// The level is available; the 64 bytes are readable.
+    unsafe fn add_at(&mut self, p: *const u8);
+    /// The lane sums `[s1, h1, s2, h2]` of the groups so far (as [`groups_avx512`]'s).
+    ///
+    /// # Safety
+    /// The level is available.
+    unsafe fn lane_sums(&self) -> Groups;
+}
+
+impl GroupSums for Fletcher {
+    #[inline(always)]
+    unsafe fn add_at(&mut self, p: *const u8) {
+        self.add_group(_mm512_loadu_si512(p as *const __m512i));
+    }
+    #[inline(always)]
+    unsafe fn lane_sums(&self) -> Groups {
+        self.sums()
+    }
+}
+
+/// The sums `F` of the groups of packed rows, added as a kernel reads the
+/// rows ([`RowsRead`]): from the first row, which starts a group, up to the
+/// last row whose end is also a group's end (the rows after it are left to
+/// the caller, see `summing::part_after`).
+#[derive(Clone, Copy)]
+pub struct FletcherRows<F: GroupSums> {
+    sums: F,
+    /// Address of the next group to add.
+    next: usize,
+    /// End of the rows summed.
+    limit: usize,
+}
+
+impl<F: GroupSums> FletcherRows<F> {
+    /// `sums` (empty) of `rows` rows of `row_bytes` bytes each, stored back
+    /// to back from `base` (the start of a checksum group); the rows summed,
+    /// a multiple of `64 / gcd(row_bytes, 64)` (at most 15 fewer than `rows`).
+    pub fn new(sums: F, base: *const u8, rows: usize, row_bytes: usize) -> (Self, usize) {
+        // Rows whose bytes fill whole groups: 64 / gcd(row_bytes, 64).
+        let period = 64 >> row_bytes.trailing_zeros().min(6);
+        let summed = rows - rows % period;
+        let next = base as usize;
+        (FletcherRows { sums, next, limit: next + summed * row_bytes }, summed)
+    }
+
+    /// The sums of the groups added.
+    pub fn sums(&self) -> F {
+        self.sums
+    }
+}
+
+impl<F: GroupSums> RowsRead for FletcherRows<F> {
+    #[inline(always)]
+    unsafe fn rows_read(&mut self, end: *const u8) {
+        let end = (end as usize).min(self.limit);
+        while self.next + 64 <= end {
+            // SAFETY: the group lies within the rows read (below `end`), and
+            // the level is available (the caller's contract).
+            unsafe { self.sums.add_at(self.next as *const u8) };
+            self.next += 64;
+        }
     }
 }
 
@@ -173,4 +275,67 @@ pub unsafe fn groups_avx2(p: *const u8, m: usize) -> Groups {
         }
     }
     out
+}
+
+/// [`Fletcher`] at AVX2: lanes 0-3 and 4-7 of each sum in two registers (as
+/// [`groups_avx2`]), fed by the AVX2 kernels as they read (see [`SumVectors`]
+/// and [`RowsRead`]).
+#[derive(Clone, Copy)]
+pub struct Fletcher2 {
+    s1: [__m256i; 2],
+    h1: [__m256i; 2],
+    s2: [__m256i; 2],
+    h2: [__m256i; 2],
+}
+
+impl Fletcher2 {
+    /// No groups yet.
+    ///
+    /// # Safety
+    /// AVX2 is available.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn new() -> Self {
+        let z = [_mm256_setzero_si256(); 2];
+        Fletcher2 { s1: z, h1: z, s2: z, h2: z }
+    }
+
+    /// Adds the next group, its words 0-3 in `lo` and 4-7 in `hi`.
+    ///
+    /// # Safety
+    /// AVX2 is available.
+    #[inline(always)]
+    unsafe fn add_group(&mut self, x: [__m256i; 2]) {
+        for half in 0..2 {
+            self.s1[half] = _mm256_add_epi64(self.s1[half], x[half]);
+            self.h1[half] = _mm256_add_epi64(self.h1[half], _mm256_srli_epi64::<32>(x[half]));
+            self.s2[half] = _mm256_add_epi64(self.s2[half], self.s1[half]);
+            self.h2[half] = _mm256_add_epi64(self.h2[half], self.h1[half]);
+        }
+    }
+}
+
+impl GroupSums for Fletcher2 {
+    #[inline(always)]
+    unsafe fn add_at(&mut self, p: *const u8) {
+        let half = |h: usize| unsafe { _mm256_loadu_si256(p.add(32 * h) as *const __m256i) };
+        self.add_group([half(0), half(1)]);
+    }
+    #[inline(always)]
+    unsafe fn lane_sums(&self) -> Groups {
+        let mut out = [[0u64; 8]; 4];
+        for (o, v) in out.iter_mut().zip([self.s1, self.h1, self.s2, self.h2]) {
+            for half in 0..2 {
+                // SAFETY: each half of `o` holds exactly 32 bytes.
+                unsafe { _mm256_storeu_si256(o.as_mut_ptr().add(4 * half) as *mut __m256i, v[half]) };
+            }
+        }
+        out
+    }
+}
+
+impl<T: Prediction> SumVectors<T, Avx2Vectors> for Fletcher2 {
+    #[inline(always)]
+    unsafe fn add(&mut self, x: [T::V256; 2]) {
+        self.add_group([T::bits256(x[0]), T::bits256(x[1])]);
+    }
 }

@@ -17,6 +17,7 @@
 //! with this kernel, sections "session 16 AVX2 final code", 0.79-1.04 and
 //! 0.96-1.05).
 
+use super::checksum::RowsRead;
 use super::periodic_avx2::bit_bytes;
 use crate::kernel::{diagnose_impl, Prediction, SensorBounds, Tally, BLOCK};
 use crate::matrix::Matrix;
@@ -154,18 +155,23 @@ pub(super) unsafe fn any_rejecting<T: Prediction>(row: &[T], accept: &[Vec<T>; 2
 
 /// Writes the number of rejecting sensors of each row of `m` into `out` and
 /// adds the per-sensor counts to `t` (rows that are not contiguous take the
-/// portable loop).
+/// portable loop); tells `sums` each row read.
 ///
 /// # Safety
 /// AVX2 and POPCNT are available.
 #[inline]
 #[target_feature(enable = "avx2,popcnt")]
-pub unsafe fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
+pub unsafe fn diagnose<T: Prediction, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    (t, sums): (&mut Tally, &mut S),
+) {
     // Rows of up to 64 sensors keep their string in a register.
     if m.cols() <= 64 {
-        diagnose_words::<T, true>(m, b, out, t)
+        diagnose_words::<T, true, S>(m, b, out, (t, sums))
     } else {
-        diagnose_words::<T, false>(m, b, out, t)
+        diagnose_words::<T, false, S>(m, b, out, (t, sums))
     }
 }
 
@@ -176,11 +182,11 @@ pub unsafe fn diagnose<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, out: &
 /// As [`diagnose`].
 #[inline]
 #[target_feature(enable = "avx2,popcnt")]
-unsafe fn diagnose_words<T: Prediction, const ONE: bool>(
+unsafe fn diagnose_words<T: Prediction, const ONE: bool, S: RowsRead>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],
-    t: &mut Tally,
+    (t, sums): (&mut Tally, &mut S),
 ) {
     let (k, accept) = (m.cols(), T::accepted(b));
     assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && accept[1].len() == accept[0].len());
@@ -196,7 +202,7 @@ unsafe fn diagnose_words<T: Prediction, const ONE: bool>(
     };
     // Candidates in a row so far: the verdict comes first after a few.
     let mut run = 0u32;
-    diagnose_impl(m, b, out, t, |row, _, per_sensor| {
+    let mut verdict = |row: &[T], per_sensor: &mut [u64]| {
         if run >= VERDICT_FIRST && !any_rejecting(row, accept) {
             run = run.saturating_add(1);
             return (0, false, k.saturating_sub(1));
@@ -245,7 +251,15 @@ unsafe fn diagnose_words<T: Prediction, const ONE: bool>(
         };
         run = if n == 0 { run.saturating_add(1) } else { 0 };
         (n, nan, first)
+    };
+    let mut read = *sums;
+    diagnose_impl(m, b, out, t, |row, _, per_sensor| {
+        let v = verdict(row, per_sensor);
+        // SAFETY: AVX2 is enabled.
+        unsafe { read.rows_read(row.as_ptr_range().end as *const u8) };
+        v
     });
+    *sums = read;
     counts.flush(&mut t.per_sensor);
     pair.flush(&mut t.per_sensor);
 }

@@ -19,6 +19,7 @@
 //! interval (45 % of the rows rejected) 40-42 -> 84-89; f32 105-106 -> 134-157
 //! and 73-75 -> 139-152.
 
+use super::checksum::RowsRead;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
@@ -36,7 +37,8 @@ pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
 }
 
 /// Writes the rejecting-sensor count of every row of `m` to `out` and adds
-/// the rows' diagnostics to `t`, for rows of `V` vectors (see [`vectors`]).
+/// the rows' diagnostics to `t`, for rows of `V` vectors (see [`vectors`]);
+/// tells `sums` each row it has read (the checkpoint checksum, if any).
 ///
 /// # Safety
 /// AVX-512F, POPCNT and BMI1 are available; `vectors::<T>(m.cols()) == Some(V)`;
@@ -44,7 +46,12 @@ pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
 /// of `b` are padded to whole vectors (as `SensorBounds` pads them).
 #[inline]
 #[target_feature(enable = "avx512f,popcnt,bmi1")]
-pub unsafe fn diagnose<T: Prediction, const V: usize>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], t: &mut Tally) {
+pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    (t, sums): (&mut Tally, &mut S),
+) {
     let (k, w, accept) = (m.cols(), T::W512, T::accepted(b));
     assert!(out.len() == m.rows() && t.per_sensor.len() == k && accept[0].len() >= V * w);
     let all = u32::MAX >> (32 - w);
@@ -57,6 +64,7 @@ pub unsafe fn diagnose<T: Prediction, const V: usize>(m: Matrix<'_, T>, b: &Sens
     // it has exactly one (index 64: no rejecting sensor, never counted), in
     // memory rather than in V more vector counters.
     let mut only_by = [0u64; 65];
+    let mut read = *sums;
     for first in (0..m.rows()).step_by(FLUSH_ROWS) {
         let end = (first + FLUSH_ROWS).min(m.rows());
         let mut accepting = [_mm512_setzero_si512(); V];
@@ -69,6 +77,7 @@ pub unsafe fn diagnose<T: Prediction, const V: usize>(m: Matrix<'_, T>, b: &Sens
                 super::prefetch_line(row.as_ptr().wrapping_add(v * w));
             }
             let (inside, nan) = visit_row(row.as_ptr(), &low, &high, last, &mut accepting);
+            read.rows_read(row.as_ptr_range().end as *const u8);
             let rejects = !inside & row_lanes;
             let n = rejects.count_ones();
             only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
@@ -81,6 +90,7 @@ pub unsafe fn diagnose<T: Prediction, const V: usize>(m: Matrix<'_, T>, b: &Sens
     for (total, &c) in t.only_by.iter_mut().zip(&only_by[..k]) {
         *total += c;
     }
+    *sums = read;
 }
 
 /// Runs `$body` with `$v` = 0, 1, .. while below `$V` (at most 8), unrolled:

@@ -84,6 +84,8 @@ pub trait Lanes: Copy {
     unsafe fn add256(a: Self::V256, b: Self::V256) -> Self::V256;
     /// All lanes 0. # Safety: AVX2 is available.
     unsafe fn zero256() -> Self::V256;
+    /// The vector's bits as four 64-bit words (no conversion). # Safety: AVX2 is available.
+    unsafe fn bits256(p: Self::V256) -> __m256i;
 
     /// Lanes of an AVX-512 vector.
     const W512: usize;
@@ -222,6 +224,12 @@ impl Lanes for f64 {
     }
 
     #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn bits256(p: __m256d) -> __m256i {
+        _mm256_castpd_si256(p)
+    }
+
+    #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn zero512() -> __m512d {
         _mm512_setzero_pd()
@@ -356,6 +364,12 @@ impl Lanes for f32 {
     #[target_feature(enable = "avx512f")]
     unsafe fn bits512(p: __m512) -> __m512i {
         _mm512_castps_si512(p)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn bits256(p: __m256) -> __m256i {
+        _mm256_castps_si256(p)
     }
 
     #[inline]

@@ -14,7 +14,7 @@
 //! AVX2 but not AVX-512: there the older kernels run ([`fast_pext`]).
 
 use super::bit_string::{BitCounts, Bits};
-use super::periodic::{NoSums, Periodic, Vectors};
+use super::periodic::{Periodic, SumVectors, Vectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use std::arch::x86_64::*;
@@ -131,8 +131,8 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
     /// AVX2, BMI2 and POPCNT are available; `data` holds the rows back to back.
     #[inline]
     #[target_feature(enable = "avx2,bmi2,popcnt")]
-    pub unsafe fn screen(&self, data: &[T], periods: usize, out: &mut BitSink) {
-        self.screen_any(data, periods, out, &mut NoSums)
+    pub unsafe fn screen<S: SumVectors<T, Avx2Vectors>>(&self, data: &[T], periods: usize, out: &mut BitSink, sums: &mut S) {
+        self.screen_any(data, periods, out, sums)
     }
 
     /// See `Periodic::diagnose_any`.
@@ -141,18 +141,18 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
     /// As [`Self::screen`]; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx2,bmi2,popcnt")]
-    pub unsafe fn diagnose<const COUNTS: bool>(
+    pub unsafe fn diagnose<const COUNTS: bool, S: SumVectors<T, Avx2Vectors>>(
         &self,
         data: &[T],
         periods: usize,
         counts: &mut [u32],
         out: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
         // One entry per `COUNTS`: both in one function ran f32 rows of 5 and
         // 10 6-11 % slower at AVX2 (`benches/results-short-rows.txt`,
         // "session 16: one entry per COUNTS").
-        self.diagnose_any::<COUNTS, NoSums>(data, periods, counts, out, (t, &mut NoSums))
+        self.diagnose_any::<COUNTS, S>(data, periods, counts, out, (t, sums))
     }
 }
 

@@ -22,6 +22,7 @@
 //! the read floor (section "session 13: side by side").
 
 use super::bit_counts::BitPlanes;
+use super::checksum::RowsRead;
 use super::short::ShortRows;
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, Tally};
@@ -33,18 +34,19 @@ const BATCH: usize = 16;
 
 impl<T: Prediction> ShortRows<T> {
     /// One pass over the rows of `m`, one row per unit, `G` vectors a row
-    /// (as `run`, which it replaces for one row per unit).
+    /// (as `run`, which it replaces for one row per unit); each batch read
+    /// told to `sums`.
     ///
     /// # Safety
     /// AVX-512F and POPCNT are available; each row of `m` is contiguous;
     /// `self.rows == 1`, `self.vectors == G`.
     #[inline(always)]
-    pub(super) unsafe fn run_rows<const G: usize, const DIAG: bool, const COUNTS: bool>(
+    pub(super) unsafe fn run_rows<const G: usize, const DIAG: bool, const COUNTS: bool, S: RowsRead>(
         &self,
         m: Matrix<'_, T>,
         counts: &mut [u32],
         sink: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
         assert!(self.rows == 1 && self.vectors == G && m.cols() == self.k);
         let w = T::W512;
@@ -102,6 +104,7 @@ impl<T: Prediction> ShortRows<T> {
                     masks[i] = row_lanes;
                 }
             }
+            sums.rows_read(base.add((n - 1) * stride + self.k) as *const u8);
             let valid = if n == BATCH { u16::MAX } else { ((1u32 << n) - 1) as u16 };
             // Rejecting sensors of each row: its lanes outside (not needed to screen).
             let (candidates, out) = if !DIAG && !COUNTS {

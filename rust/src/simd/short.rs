@@ -16,6 +16,7 @@
 //! bit is the sensor), and NaN rows are counted only in the rare vectors
 //! holding a NaN.
 
+use super::checksum::RowsRead;
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -147,23 +148,29 @@ impl<T: Prediction> ShortRows<T> {
     /// to back when packed).
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
-    pub unsafe fn screen(&self, m: Matrix<'_, T>, sink: &mut BitSink) {
-        self.dispatch::<false, false>(m, &mut [], sink, &mut Tally::zeros(0))
+    pub unsafe fn screen<S: RowsRead>(&self, m: Matrix<'_, T>, sink: &mut BitSink, sums: &mut S) {
+        self.dispatch::<false, false, S>(m, &mut [], sink, (&mut Tally::zeros(0), sums))
     }
 
     /// Writes each row's candidate bit to `sink`, its rejecting-sensor count
     /// to `counts` if given (one per row), and adds its diagnostics to `t`
-    /// (as `kernel::diagnose`).
+    /// (as `kernel::diagnose`); tells `sums` the rows read (as `screen`).
     ///
     /// # Safety
     /// As [`Self::screen`]; `t` has `k` sensors.
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
-    pub unsafe fn diagnose(&self, m: Matrix<'_, T>, counts: Option<&mut [u32]>, sink: &mut BitSink, t: &mut Tally) {
+    pub unsafe fn diagnose<S: RowsRead>(
+        &self,
+        m: Matrix<'_, T>,
+        counts: Option<&mut [u32]>,
+        sink: &mut BitSink,
+        (t, sums): (&mut Tally, &mut S),
+    ) {
         assert!(t.per_sensor.len() == self.k);
         match counts {
-            Some(c) => self.dispatch::<true, true>(m, c, sink, t),
-            None => self.dispatch::<true, false>(m, &mut [], sink, t),
+            Some(c) => self.dispatch::<true, true, S>(m, c, sink, (t, sums)),
+            None => self.dispatch::<true, false, S>(m, &mut [], sink, (t, sums)),
         }
     }
 
@@ -172,35 +179,38 @@ impl<T: Prediction> ShortRows<T> {
     /// immediates (about a third of the instructions of a generic loop).
     #[inline]
     #[target_feature(enable = "avx512f,popcnt")]
-    unsafe fn dispatch<const DIAG: bool, const COUNTS: bool>(
+    unsafe fn dispatch<const DIAG: bool, const COUNTS: bool, S: RowsRead>(
         &self,
         m: Matrix<'_, T>,
         counts: &mut [u32],
         sink: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
         assert!((!COUNTS || counts.len() == m.rows()) && m.cols() == self.k);
+        let mut read = *sums;
         match (self.rows, self.vectors) {
-            (1, 1) => self.run_rows::<1, DIAG, COUNTS>(m, counts, sink, t),
-            (1, _) => self.run_rows::<2, DIAG, COUNTS>(m, counts, sink, t),
-            (2, _) => self.run::<2, DIAG, COUNTS>(m, counts, sink, t),
-            (4, _) => self.run::<4, DIAG, COUNTS>(m, counts, sink, t),
-            (8, _) => self.run::<8, DIAG, COUNTS>(m, counts, sink, t),
-            _ => self.run::<16, DIAG, COUNTS>(m, counts, sink, t),
+            (1, 1) => self.run_rows::<1, DIAG, COUNTS, S>(m, counts, sink, (t, &mut read)),
+            (1, _) => self.run_rows::<2, DIAG, COUNTS, S>(m, counts, sink, (t, &mut read)),
+            (2, _) => self.run::<2, DIAG, COUNTS, S>(m, counts, sink, (t, &mut read)),
+            (4, _) => self.run::<4, DIAG, COUNTS, S>(m, counts, sink, (t, &mut read)),
+            (8, _) => self.run::<8, DIAG, COUNTS, S>(m, counts, sink, (t, &mut read)),
+            _ => self.run::<16, DIAG, COUNTS, S>(m, counts, sink, (t, &mut read)),
         }
+        *sums = read;
     }
 
     /// One pass over the rows of `m`, `R` packed rows per unit (one row per
     /// unit goes to `run_rows`); diagnostics into `t`
-    /// when `DIAG`, per-row counts into `counts` when `COUNTS`. Candidate
-    /// bits go to `sink` 64 rows at a time (R divides 64).
+    /// when `DIAG`, per-row counts into `counts` when `COUNTS`; each unit
+    /// read told to `sums`. Candidate bits go to `sink` 64 rows at a time (R
+    /// divides 64).
     #[inline(always)]
-    unsafe fn run<const R: usize, const DIAG: bool, const COUNTS: bool>(
+    unsafe fn run<const R: usize, const DIAG: bool, const COUNTS: bool, S: RowsRead>(
         &self,
         m: Matrix<'_, T>,
         counts: &mut [u32],
         sink: &mut BitSink,
-        t: &mut Tally,
+        (t, sums): (&mut Tally, &mut S),
     ) {
         assert!(R == self.rows && R > 1);
         let (field, slot, k) = (prefix(self.slot), self.slot, self.k);
@@ -222,6 +232,7 @@ impl<T: Prediction> ShortRows<T> {
                 // The last, partial unit of packed rows.
                 self.unit(packed.as_ptr().add(u * R * k), n)
             };
+            sums.rows_read(packed.as_ptr().add((u * R + n) * k) as *const u8);
             let mut single = 0u64;
             // `R` constant: unrolled, the shifts are immediates (hence the index).
             #[allow(clippy::needless_range_loop)]
