@@ -2,13 +2,14 @@
 
 A checkpointed run sums every row it falsifies into the block checksum
 ``fletcher64x8/2`` (``rust/src/digest.rs``), in the falsifier's own pass
-(``Falsifier.update(chunk, digest=...)``, ``rust/src/summing.rs``): at
-AVX-512, where the periodic kernel screens the rows (rows of up to 12
-sensors, and some wider) it adds each vector it loads to the sums as it
-compares it, and where a kernel reads a row at a time (rows of three or
-more vectors) it adds each 64-byte group once the rows read so far fill it,
-from L1; other rows are summed 128 KiB at a time by the thread that has
-just screened them, while they are in that core's L2 cache. This times, side by side in one run, the same in-memory chunks through
+(``Falsifier.update(chunk, digest=...)``, ``rust/src/summing.rs``): the
+periodic kernel (short rows, at AVX-512 and AVX2) adds each vector it loads
+to the sums as it compares it, and the kernels that read a row (or sixteen)
+at a time add each 64-byte group once the rows read so far fill it, from
+L1; rows the vector kernels do not sum (not stored back to back, the
+portable level) are summed 128 KiB at a time by the thread that has just
+screened them, while they are in that core's L2 cache. ``EDMF_RS_ISA=avx2``
+runs it at AVX2. This times, side by side in one run, the same in-memory chunks through
 
 - "off": the falsifier alone;
 - "on":  the falsifier feeding the checksum (what a checkpointed run does);
@@ -35,8 +36,10 @@ The last two tables are the streaming rate the checksum is meant to be
 cheap beside: ``edmf_rs.falsify`` over a ``.npy`` file with no checkpoint,
 with a checkpoint folder whose checksum is replaced by a row counter
 (`RowCounter`), and with a real one, wall time, rounds in rotating order.
-"sum share" (real / counter) is the checksum's cost; "ckpt/none" what the
-rest of a checkpoint costs. The file is read warm (in the page cache, as
+"sum share" (real / counter, best times) is the checksum's cost, "paired"
+the median over rounds of the same ratio within a round (the two runs a
+few tenths of a second apart: steadier on a shared host); "ckpt/none" what
+the rest of a checkpoint costs. The file is read warm (in the page cache, as
 after it was written: the copy out of the page cache is then most of the
 CPU time, the hardest case for the checksum) and cold (its pages dropped
 with ``posix_fadvise(POSIX_FADV_DONTNEED)`` before every run: read from the
@@ -163,10 +166,10 @@ def streaming_table(args, cold: bool) -> list[float]:
           f"folder with the checksum replaced by a row counter (ckpt), and a real checkpoint (ckpt+sum); wall s, "
           f"best of {repeats} rounds in rotating order; {load()}")
     head = (f"{'dtype':7} {'n_m':>3} {'case':7} {'pass':11} {'none':>7} {'ckpt':>7} {'ckpt+sum':>8} "
-            f"{'sum share':>9} {'ckpt/none':>9} {'GB/s none':>9}")
+            f"{'sum share':>9} {'ckpt/none':>9} {'GB/s none':>9} {'paired':>7}")
     print(head)
     print("-" * len(head))
-    ratios = []
+    ratios, paired_medians = [], []
     variants = {"none": (False, True), "ckpt": (True, False), "ckpt+sum": (True, True)}
     with tempfile.TemporaryDirectory(prefix="edmf-hash-cost-") as tmp:
         path, folder = Path(tmp) / "g.npy", Path(tmp) / "ckpt"
@@ -195,13 +198,16 @@ def streaming_table(args, cold: bool) -> list[float]:
                         best_of = {v: min(t) for v, t in times.items()}
                         share = best_of["ckpt+sum"] / best_of["ckpt"]
                         ratios.append(share)
+                        # Each round's two checkpointed runs, a few tenths of a second apart.
+                        paired = statistics.median(a / b for a, b in zip(times["ckpt+sum"], times["ckpt"]))
+                        paired_medians.append(paired)
                         print(f"{np.dtype(dtype).name:7} {n_m:3d} {case:7} "
                               f"{'diagnostics' if diagnostics else 'screen':11} {best_of['none']:7.3f} "
                               f"{best_of['ckpt']:7.3f} {best_of['ckpt+sum']:8.3f} {share:9.3f} "
                               f"{best_of['ckpt'] / best_of['none']:9.3f} "
-                              f"{args.file_mbytes / 1e3 / best_of['none']:9.2f}", flush=True)
+                              f"{args.file_mbytes / 1e3 / best_of['none']:9.2f} {paired:7.3f}", flush=True)
     print(f"streaming {'cold' if cold else 'warm'}, ckpt+sum / ckpt: median {statistics.median(ratios):.3f}, "
-          f"largest {max(ratios):.3f}; "
+          f"largest {max(ratios):.3f}; median of the paired ratios {statistics.median(paired_medians):.3f}; "
           f"after: {load()}")
     return ratios
 

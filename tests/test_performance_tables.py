@@ -631,3 +631,57 @@ def test_session_16_one_entry_figure_matches_the_recorded_runs():
     for source in ("periodic.rs", "periodic_avx2.rs"):
         doc = " ".join((ROOT / "rust" / "src" / "simd" / source).read_text().replace("//", "").split())
         assert f"10 {min(slower):.0%}-{max(slower):.0%}".replace("%-", "-").replace("%", " %") + " slower at AVX2" in doc
+
+
+def test_session_18_floor_tables_match_the_recorded_runs():
+    """The CPU family 25 table (three runs at each level), its summary, and the
+    figures of what the gap is not, from the recorded runs."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page_text = (ROOT / "docs" / "performance.md").read_text()
+    page = " ".join(page_text.split())
+    levels = []
+    for prefix in ("session 18 final code", "session 18 AVX2 final code"):
+        runs = [s for s in text.split("\n=== ") if s.startswith(prefix)]
+        assert len(runs) == 3
+        levels.append((_cases_table(runs), [float(m[5]) for run in runs for m in map(ROW.match, run.splitlines()) if m]))
+    (avx512, floors512), (avx2, floors2) = levels
+    assert len(avx512) == len(avx2) == 40
+
+    def cell(v):
+        return f"{statistics.median(v):.2f} ({min(v):.2f}-{max(v):.2f})"
+
+    for n_m, dtype, case in {k[:3] for k in avx512}:
+        cells = [cell(t[(n_m, dtype, case, mode)]) for t in (avx512, avx2) for mode in ("diagnostics", "no diagnostics")]
+        assert f"| {n_m} | {dtype} | {case} | {' | '.join(cells)} |" in page_text
+    medians = {(level,) + k: statistics.median(v) for level, t in (("avx512", avx512), ("avx2", avx2))
+               for k, v in t.items()}
+    missed = [k for k, m in medians.items() if m < _target(k[1], k[3], k[4])]
+    assert all(k[1] != "5" and not (k[3] == "worst" and k[4] == "diagnostics") for k in missed)
+    floors = floors512 + floors2
+    assert (f"every case reads {min(medians.values()):.2f}-{max(medians.values()):.2f} of the floor by the median, "
+            f"whatever the width, dtype, level or mode, so {len(missed)} of the {len(medians)} medians miss") in page
+    assert (f"read the 800 MB in a median of {statistics.median(floors):.1f} ms "
+            f"({min(floors):.1f}-{max(floors):.1f})") in page
+    # What the gap is not: the ad hoc runs of the section "where this host's floor gap is".
+    section = text.split("\n=== session 18: where this host's floor gap is")[1].split("\n=== ")[0]
+    digest = [float(r) for r in re.findall(r"RowDigest [\d.]+ ms, ratio ([\d.]+)", section)]
+    assert f"reads at {min(digest):.2f}-{max(digest):.2f} of the floor" in page
+    gaps = defaultdict(list)
+    for mb, diff in re.findall(r"^(\d+) MB: floor [\d.]+ ms falsify [\d.]+ ms diff ([\d.]+)", section, re.M):
+        gaps[int(mb)].append(float(diff))
+    assert (f"{min(gaps[200]):.1f}-{max(gaps[200]):.1f} ms at 200 MB, {min(gaps[1600]):.1f}-{max(gaps[1600]):.1f} ms "
+            f"at 1,600 MB") in page
+    one_max = [float(r) for r in re.findall(r"np\.max 1 thread [\d.]+ ms \(([\d.]+) GB/s\)", section)]
+    one_kernel = [float(r) for r in re.findall(r"threads 1: falsify [\d.]+ ms \(([\d.]+) GB/s\)", section)]
+    assert (f"One thread of `np.max` reads {min(one_max):.0f}-{max(one_max):.0f} GB/s here, nearly the two threads' "
+            f"floor (about {800 / statistics.median(floors):.0f} GB/s), while one thread of the kernel reads "
+            f"{min(one_kernel):.0f}-{max(one_kernel):.0f} GB/s from memory") in page
+    earlier = []
+    for prefix in ("session 15 final code", "session 16 AVX2 final code"):
+        table = _cases_table([s for s in text.split("\n=== ") if s.startswith(prefix)])
+        m = [statistics.median(v) for v in table.values()]
+        earlier.append(f"{min(m):.2f}-{max(m):.2f}")
+    assert f"kernels of the same speed read {earlier[0]} (AVX-512) and {earlier[1]} (AVX2) by the median" in page
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (f"every case read {min(medians.values()):.2f}-{max(medians.values()):.2f} of it by the median, at AVX-512 "
+            "and at AVX2 alike") in readme

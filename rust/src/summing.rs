@@ -1,17 +1,20 @@
 //! A checkpointed run's pass over its rows: every row falsified and added to
 //! its block's checksum ([`crate::digest`]) once, while it is in cache.
 //!
-//! At AVX-512 the kernel sums the rows itself, in its own pass:
-//! - where it reads the rows as whole 64-byte vectors (the periodic kernel
-//!   for short rows), each vector it loads is one group of the checksum, so
-//!   it adds it to the sums as it compares it: nothing is read twice;
-//! - where it reads a row at a time (rows of three or more vectors), it adds
-//!   each group once the rows read so far fill it, reloaded from L1
-//!   (`checksum::FletcherRows`).
+//! The vector kernels sum rows stored back to back themselves, in their own
+//! pass:
+//! - where a kernel reads the rows as whole 64-byte vectors (the periodic
+//!   kernel for short rows, at AVX-512 and AVX2), each vector it loads is one
+//!   group of the checksum, so it adds it to the sums as it compares it:
+//!   nothing is read twice;
+//! - where it reads a row, or sixteen rows, at a time (the other AVX-512
+//!   kernels, the AVX2 long-row kernel), it adds each group once the rows
+//!   read so far fill it, reloaded from L1 (`checksum::FletcherRows`).
 //!
-//! The additions fill gaps in the kernel's own work. Other rows (rows of one
-//! or two vectors that no period takes, every row at AVX2 and below) are
-//! summed right after the kernel has read them, from L2.
+//! The additions fill gaps in the kernel's own work. Other rows (rows not
+//! stored back to back, rows of up to eight sensors at AVX2 where `pext` is
+//! slow, every row at the portable level) are summed right after the kernel
+//! has read them, from L2.
 
 use crate::candidates::BitSink;
 use crate::digest::{self, add_groups, first_unit, Groups, Part, Value, BLOCK_ROWS, PIECE_ROWS, STEP_UNITS};
@@ -26,8 +29,8 @@ pub struct Summed {
     pub sums: Groups,
 }
 
-/// [`kernel::diagnose_bits_with`], summing the leading rows its kernel reads as
-/// whole vectors. Row 0 of `m` must start a group of its block (see
+/// [`kernel::diagnose_bits_with`], summing the leading rows its kernel reads
+/// (see the module docs). Row 0 of `m` must start a group of its block (see
 /// [`part_after`]) for the sums to be the block's.
 pub fn diagnose_bits_summed_with<T: Prediction>(
     isa: Isa,

@@ -15,9 +15,9 @@ interface, whichever kind it is:
 
 The block checksums of the chunks a run falsifies are computed by the
 falsifier in the same pass (``acc.update(chunk, digest=run.digest(first))``:
-at AVX-512 by the kernel as it reads them, for rows of up to 12 sensors and
-of three vectors or more; other rows 128 KiB at a time right after the
-kernel has read them, while they are in cache); ``done`` sums in a
+by the vector kernels as they read them, where the rows are stored back to
+back; other rows 128 KiB at a time right after the kernel has read them,
+while they are in cache); ``done`` sums in a
 separate pass the rows that are not the falsifier's input (the parameter sets
 of ``falsify_model``). Rows re-read on resumption are checked by a separate
 ``_core.RowDigest`` pass (``skipped``): that re-read is only a verification.

@@ -124,8 +124,11 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     keep_violations = flag(keep_violations, "keep_violations")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
-    if checkpoint is not None and chunk_rows is None:
-        chunk_rows = max(1024, CHUNK_BYTES // (8 * y.shape[0]))  # so an array is checkpointed in steps too
+    if checkpoint is not None and chunk_rows is None and not isinstance(predictions, (str, bytes, os.PathLike)):
+        # So an array is checkpointed in steps too, of the reader's chunk size
+        # (a file is read in those already): float32 rows are read as they are.
+        item = 4 if getattr(predictions, "dtype", None) == np.float32 else 8
+        chunk_rows = max(1024, CHUNK_BYTES // (item * y.shape[0]))
     source = open_source(predictions, y.shape[0], chunk_rows)
     fields = ("n_violated",) if keep_violations else ()
     fp = fingerprint("falsify", y, thresholds, diagnostics=diagnostics, keep_violations=keep_violations,
