@@ -40,26 +40,17 @@ pub fn diagnose_bits_summed_with<T: Prediction>(
     sink: &mut BitSink,
     tally: &mut Tally,
 ) -> Summed {
+    assert!(m.cols() == b.len() && counts.as_ref().is_none_or(|c| c.len() == m.rows()));
     #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx512 && isa.supported() {
-        use crate::simd::{avx512, checksum::Fletcher};
-        assert!(m.cols() == b.len() && counts.as_ref().is_none_or(|c| c.len() == m.rows()));
-        // SAFETY: the CPU runs AVX-512F (checked by `supported`).
+    if isa != Isa::Portable && isa.supported() {
+        use crate::simd::{avx2, avx512, checksum::{Fletcher, Fletcher2}};
+        // SAFETY: the CPU runs the level (checked by `supported`).
         return unsafe {
-            let mut f = Fletcher::new();
-            let rows = avx512::diagnose_bits_summed(m, b, counts, sink, (tally, &mut f));
-            Summed { rows, sums: f.sums() }
-        };
-    }
-    #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx2 && isa.supported() {
-        use crate::simd::{avx2, checksum::{Fletcher2, GroupSums}};
-        assert!(m.cols() == b.len() && counts.as_ref().is_none_or(|c| c.len() == m.rows()));
-        // SAFETY: the CPU runs AVX2 and POPCNT (checked by `supported`).
-        return unsafe {
-            let mut f = Fletcher2::new();
-            let rows = avx2::diagnose_bits_summed(m, b, counts, sink, (tally, &mut f));
-            Summed { rows, sums: f.lane_sums() }
+            if isa == Isa::Avx512 {
+                summed(Fletcher::new(), |f| avx512::diagnose_bits_summed(m, b, counts, sink, (tally, f)))
+            } else {
+                summed(Fletcher2::new(), |f| avx2::diagnose_bits_summed(m, b, counts, sink, (tally, f)))
+            }
         };
     }
     kernel::diagnose_bits_with(isa, m, b, counts, sink, tally);
@@ -74,30 +65,32 @@ pub fn screen_bits_summed_with<T: Prediction>(
     plan: &ScreenPlan,
     sink: &mut BitSink,
 ) -> Summed {
+    assert!(m.cols() == b.len(), "one column per sensor");
     #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx512 && isa.supported() {
-        use crate::simd::{avx512, checksum::Fletcher};
-        assert!(m.cols() == b.len(), "one column per sensor");
-        // SAFETY: the CPU runs AVX-512F (checked by `supported`).
+    if isa != Isa::Portable && isa.supported() {
+        use crate::simd::{avx2, avx512, checksum::{Fletcher, Fletcher2}};
+        // SAFETY: the CPU runs the level (checked by `supported`).
         return unsafe {
-            let mut f = Fletcher::new();
-            let rows = avx512::screen_bits_summed(m, (b, plan), sink, &mut f);
-            Summed { rows, sums: f.sums() }
-        };
-    }
-    #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx2 && isa.supported() {
-        use crate::simd::{avx2, checksum::{Fletcher2, GroupSums}};
-        assert!(m.cols() == b.len(), "one column per sensor");
-        // SAFETY: the CPU runs AVX2 and POPCNT (checked by `supported`).
-        return unsafe {
-            let mut f = Fletcher2::new();
-            let rows = avx2::screen_bits_summed(m, (b, plan), sink, &mut f);
-            Summed { rows, sums: f.lane_sums() }
+            if isa == Isa::Avx512 {
+                summed(Fletcher::new(), |f| avx512::screen_bits_summed(m, (b, plan), sink, f))
+            } else {
+                summed(Fletcher2::new(), |f| avx2::screen_bits_summed(m, (b, plan), sink, f))
+            }
         };
     }
     kernel::screen_bits_with(isa, m, b, plan, sink);
     Summed::default()
+}
+
+/// The rows a summed kernel, run with the empty sums `sums`, summed and their lane sums.
+///
+/// # Safety
+/// The sums' level is available.
+#[cfg(target_arch = "x86_64")]
+unsafe fn summed<F: crate::simd::checksum::GroupSums>(mut sums: F, kernel: impl FnOnce(&mut F) -> usize) -> Summed {
+    let rows = kernel(&mut sums);
+    // SAFETY: the level is available (the caller's contract).
+    Summed { rows, sums: unsafe { sums.lane_sums() } }
 }
 
 /// Whether the summed kernels at `isa` sum rows `m` themselves (every row
