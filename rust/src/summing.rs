@@ -99,7 +99,7 @@ unsafe fn summed<F: crate::simd::checksum::GroupSums>(mut sums: F, kernel: impl 
 pub fn kernel_sums<T: Prediction>(isa: Isa, m: Matrix<'_, T>, b: &SensorBounds) -> bool {
     #[cfg(target_arch = "x86_64")]
     if isa == Isa::Avx512 && isa.supported() {
-        return crate::simd::avx512::kernel_sums(m, b);
+        return crate::simd::avx512::kernel_sums(m);
     }
     #[cfg(target_arch = "x86_64")]
     if isa == Isa::Avx2 && isa.supported() {

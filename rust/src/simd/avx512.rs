@@ -342,7 +342,7 @@ pub fn diagnose_bits_summed<T: Prediction>(
 
 /// Whether the summed kernels sum rows `m` as they read them: rows stored
 /// back to back (the periodic kernel's, and those the other kernels read).
-pub fn kernel_sums<T: Prediction>(m: Matrix<'_, T>, _b: &SensorBounds) -> bool {
+pub fn kernel_sums<T: Prediction>(m: Matrix<'_, T>) -> bool {
     m.packed_rows().is_some()
 }
 

@@ -134,9 +134,7 @@ impl Fletcher {
         }
         out
     }
-}
 
-impl Fletcher {
     /// Adds the next group `x` (the recurrence of `step!`, on fields).
     ///
     /// # Safety
@@ -163,9 +161,9 @@ impl<T: Prediction> SumVectors<T, Avx512Vectors> for Fletcher {
 /// the checksum's 64-byte groups (a row of 50 float64 is 6.25 groups), so the
 /// kernel cannot hand over the vectors it compares; it reloads each group
 /// once its last byte has been read, from L1, in the same pass. Summed after
-/// the kernel instead (128 KiB at a time, from L2), rows of 50 cost
-/// 1.14-1.26 of the kernel's CPU time, and 0.99-1.05 this way (AMD EPYC,
-/// CPU family 25, `benches/results-hash-cost.txt`, session 18).
+/// the kernel instead (128 KiB at a time, from L2), rows of 50 sensors cost
+/// a fifth to a quarter more CPU time than the kernel alone; measured side by side in
+/// `docs/performance.md`, "The checkpoint checksum in the kernels' pass".
 pub trait RowsRead: Copy {
     /// The rows read so far end at address `end`.
     ///
