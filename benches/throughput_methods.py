@@ -37,14 +37,21 @@ def evict(path: Path) -> None:
 # -- machine -------------------------------------------------------------------
 
 def machine() -> str:
-    model = "unknown CPU"
+    model, family = "unknown CPU", {}
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
+            key, _, value = line.partition(":")
+            key = key.strip()
+            if key == "model name":
+                model = value.strip()
+            elif key in ("cpu family", "model"):
+                family.setdefault(key, value.strip())
+            if key == "processor" and family:
+                break  # the first CPU's lines only
     except OSError:
         pass
+    if family:  # the family and model tell CPU generations apart where the name does not
+        model += f" (CPU family {family.get('cpu family', '?')}, model {family.get('model', '?')})"
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return (f"{model}; {cores} cores usable ({os.cpu_count()} online); RAM {ram_bytes() / 2**30:.1f} GiB; "
             f"{platform.system()} {platform.release()}; Python {platform.python_version()}, "

@@ -633,18 +633,18 @@ def test_session_16_one_entry_figure_matches_the_recorded_runs():
         assert f"10 {min(slower):.0%}-{max(slower):.0%}".replace("%-", "-").replace("%", " %") + " slower at AVX2" in doc
 
 
-def test_session_18_floor_tables_match_the_recorded_runs():
-    """The CPU family 25 table (three runs at each level), its summary, and the
-    figures of what the gap is not, from the recorded runs."""
-    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
-    page_text = (ROOT / "docs" / "performance.md").read_text()
-    page = " ".join(page_text.split())
+def _level_tables(text: str, page_text: str, session: str):
+    """Per level (AVX-512, AVX2: three runs each of "session <session> final
+    code"), the case table, the floor times and the runs; checks that the page
+    has every row (median and range of each mode at each level); and the
+    medians by (level, n_m, dtype, case, mode)."""
     levels = []
-    for prefix in ("session 18 final code", "session 18 AVX2 final code"):
+    for prefix in (f"session {session} final code", f"session {session} AVX2 final code"):
         runs = [s for s in text.split("\n=== ") if s.startswith(prefix)]
         assert len(runs) == 3
-        levels.append((_cases_table(runs), [float(m[5]) for run in runs for m in map(ROW.match, run.splitlines()) if m]))
-    (avx512, floors512), (avx2, floors2) = levels
+        levels.append((_cases_table(runs), [float(m[5]) for run in runs for m in map(ROW.match, run.splitlines()) if m],
+                       runs))
+    (avx512, _, _), (avx2, _, _) = levels
     assert len(avx512) == len(avx2) == 40
 
     def cell(v):
@@ -655,6 +655,16 @@ def test_session_18_floor_tables_match_the_recorded_runs():
         assert f"| {n_m} | {dtype} | {case} | {' | '.join(cells)} |" in page_text
     medians = {(level,) + k: statistics.median(v) for level, t in (("avx512", avx512), ("avx2", avx2))
                for k, v in t.items()}
+    return levels[0], levels[1], medians
+
+
+def test_session_18_floor_tables_match_the_recorded_runs():
+    """The CPU family 25 table (three runs at each level), its summary, and the
+    figures of what the gap is not, from the recorded runs."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page_text = (ROOT / "docs" / "performance.md").read_text()
+    page = " ".join(page_text.split())
+    (avx512, floors512, _), (avx2, floors2, _), medians = _level_tables(text, page_text, "18")
     missed = [k for k, m in medians.items() if m < _target(k[1], k[3], k[4])]
     assert all(k[1] != "5" and not (k[3] == "worst" and k[4] == "diagnostics") for k in missed)
     floors = floors512 + floors2
@@ -682,6 +692,116 @@ def test_session_18_floor_tables_match_the_recorded_runs():
         m = [statistics.median(v) for v in table.values()]
         earlier.append(f"{min(m):.2f}-{max(m):.2f}")
     assert f"kernels of the same speed read {earlier[0]} (AVX-512) and {earlier[1]} (AVX2) by the median" in page
+    # (The README gives session 19's figures for this host since.)
+
+
+def test_session_19_floor_tables_match_the_recorded_runs():
+    """The CPU family 25 table after session 19 (three runs at each level),
+    its summary, the prefetch and the side-by-side figures, from the recorded runs."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page_text = (ROOT / "docs" / "performance.md").read_text()
+    page = " ".join(page_text.split())
     readme = " ".join((ROOT / "README.md").read_text().split())
-    assert (f"every case read {min(medians.values()):.2f}-{max(medians.values()):.2f} of it by the median, at AVX-512 "
-            "and at AVX2 alike") in readme
+    (avx512, floors512, runs512), (avx2, floors2, _), medians = _level_tables(text, page_text, "19")
+    missed = sorted(k for k, m in medians.items() if m < _target(k[1], k[3], k[4]))
+    floors = floors512 + floors2
+    at = {level: [m for k, m in medians.items() if k[0] == level] for level in ("avx512", "avx2")}
+    summary = (f"By the median, AVX-512 reads {min(at['avx512']):.2f}-{max(at['avx512']):.2f} of the floor and AVX2 "
+               f"{min(at['avx2']):.2f}-{max(at['avx2']):.2f}; {len(missed)} of the {len(medians)} medians miss")
+    assert summary in page
+    assert (f"read the 800 MB in a median of {statistics.median(floors):.1f} ms "
+            f"({min(floors):.1f}-{max(floors):.1f})") in page
+    for level, n_m, dtype, case, mode in missed:
+        assert f"{'AVX-512' if level == 'avx512' else 'AVX2'} {dtype} rows of {n_m}, {case}, {mode} " \
+               f"({medians[(level, n_m, dtype, case, mode)]:.2f})" in page
+    cpu = sorted(float(line.split()[-1]) for run in runs512 for line in run.splitlines()
+                 if re.match(r"\s*5\s+f32\s+typical\s+[\d,]+\s+diagnostics\s", line))
+    assert len(cpu) == 3 and (f'("cpu ratio") was {cpu[0]:.2f} and {cpu[1]:.2f}, against {cpu[2]:.2f} in the '
+                              "third run") in page
+    # This CPU's prefetch against the session start's, side by side in each AVX-512 run.
+    pf = [re.search(r"prefetch nta:4096 against t1:8192: median over 40 cases of the paired ratio "
+                    r"\(time with t1:8192 / time with nta:4096\) ([\d.]+) \(range ([\d.]+)-([\d.]+)\)", run)
+          for run in runs512]
+    assert all(pf)
+    meds, lows, highs = ([float(m[i]) for m in pf] for i in (1, 2, 3))
+    assert (f"the median over the 40 cases of the paired ratio was {min(meds):.3f}-{max(meds):.3f} in the three runs "
+            f"(cases {min(lows):.2f}-{max(highs):.2f})") in page
+    # The session start's build against this one, in one process.
+    side = text.split("\n=== session 19: side by side, paired builds")[1].split("\n=== ")[0]
+    m = re.search(r"old/new paired, median over (\d+) cases: ([\d.]+) \(range ([\d.]+)-([\d.]+)\)", side)
+    assert m and f"{m[2]} times as fast by the median over {m[1]} cases ({m[3]}-{m[4]})" in page
+    assert f"{m[2]} times as fast by the median over {m[1]} cases" in readme
+    five = re.search(r"^\s+5 f32 typical diag .* old/new paired ([\d.]+)", side, re.M)
+    assert f"side by side with the session start's build they ran at the same speed ({five[1]} times as fast)" in page
+    assert summary.replace("By the median, AVX-512 reads", "AVX-512 read") in readme
+    short = {k: _target(k[1], k[3], k[4]) - medians[k] for k in missed}
+    named = [("avx512", "5", "f32", "typical", "diagnostics"), ("avx2", "16", "f32", "typical", "diagnostics")]
+    rest = [v for k, v in short.items() if k not in named]
+    assert all(k in short for k in named)
+    assert f"by {min(rest):.2f}-{max(rest):.2f} except AVX-512 float32 rows of 5 (typical, diagnostics: " \
+           f"{medians[named[0]]:.2f}, CPU-bound in two of the runs) and AVX2 float32 rows of 16 (typical, " \
+           f"diagnostics: {medians[named[1]]:.2f})" in readme
+    before = [statistics.median(v) for prefix in ("session 18 final code", "session 18 AVX2 final code")
+              for v in _cases_table([s for s in text.split("\n=== ") if s.startswith(prefix)]).values()]
+    assert f"session 18 measured {min(before):.2f}-{max(before):.2f} of it by the median in every case" in readme
+
+
+def test_session_19_prefetch_scan_figure_matches_the_recorded_scan():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    scan = text.split("\n=== session 19: prefetch scan")[1].split("\n=== ")[0]
+    short = [float(r) for r in re.findall(r"^(?:5|10|16) float\d\d \w+ .* 4096:3: ([\d.]+)", scan, re.M)]
+    assert len(short) == 12
+    doc = " ".join((ROOT / "rust" / "src" / "simd" / "prefetch.rs").read_text().replace("///", "").split())
+    assert f"{min(short):.3f}-{max(short):.3f} times the speed of `t1:8192` on rows of 5-16 sensors" in doc
+
+
+def test_session_19_hand_over_and_prefetch_costs_match_the_recorded_runs():
+    """The figures rust/src/falsifier.rs, periodic.rs and prefetch.rs quote
+    from the ad hoc section "session 19: where the time went"."""
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    section = text.split("\n=== session 19: where the time went")[1].split("\n=== ")[0]
+    wake = [float(x) for pair in re.findall(r"wake ([\d.]+) ([\d.]+)", section) for x in pair]
+    tail = [float(x) for pair in re.findall(r"tail ([\d.]+) ([\d.]+)", section) for x in pair]
+    per_slab = lambda v: f"{min(v) / 25 * 1000:.0f}-{max(v) / 25 * 1000:.0f} µs"  # 25 slabs a call
+    src = lambda name: " ".join((ROOT / "rust" / "src" / name).read_text().replace("///", "").split())
+    assert f"idle {per_slab(wake)} at a slab's start and {per_slab(tail)} at its end" in src("falsifier.rs")
+    def ratios(title):
+        """The old/new ratios of the indented lines under the line starting with `title`."""
+        lines = section.split("\n" + title)[1].split("\n")[1:]
+        block = []
+        for line in lines:
+            if not line.startswith("  "):
+                break
+            block.append(line)
+        return [float(r) for r in re.findall(r"old/new paired ([\d.]+)", "\n".join(block))]
+
+    page = " ".join((ROOT / "docs" / "performance.md").read_text().split())
+    calls = [[float(x) for x in re.findall(r"^\s+(\d+)\s+[\d.]+\s+[\d.]+\s+([\d.]+)\s+[\d.]+ .*" + name, section, re.M)[0]]
+             for name in (r"\{method 'update'", r"_count\)")]
+    update_ms, count_ms = (1000 * cum / n for n, cum in calls)
+    assert (f"counts the candidate bits again after the run (the accumulator knows the count): {count_ms:.2f} ms for "
+            f"40 million candidates, {count_ms / update_ms:.0%} of reading them") .replace("%", " %") in page
+    assert f"counting the bits again cost {count_ms:.2f} ms for 40 million candidates, {count_ms / update_ms:.0%}".replace(
+        "%", " %") in " ".join((ROOT / "python" / "edmf_rs" / "engine" / "candidate_set.py").read_text().replace("#", "").split())
+    lines = [l for l in section.splitlines() if l.startswith("wall") and " wake " in l]
+    walls = [float(re.search(r"wall ([\d.]+)", l)[1]) for l in lines]
+    assert (f"summed over the 25 slabs, {min(wake):.2f}-{max(wake):.2f} ms and {min(tail):.2f}-{max(tail):.2f} ms of a "
+            f"{min(walls):.1f}-{max(walls):.1f} ms call") in page
+    split = [re.findall(r"busy ([\d.]+) ([\d.]+) in-par", section.split(title)[1].split("\n", 1)[1].split(":\n")[0])
+             for title in ("rayon's default splitting:", "(with_max_len(1)):")]
+    gaps = [[abs(float(a) - float(b)) for a, b in pairs] for pairs in split]
+    assert (f"one thread was busy {min(gaps[0]):.1f}-{max(gaps[0]):.1f} ms less than the other in a 29-30 ms call; now "
+            f"both are busy within {max(gaps[1]) + 0.05:.1f} ms of each other") in page
+    slabs = ratios("slabs of 128 MB (old) against 32 MB (new)")
+    assert len(slabs) == 4 and f"slabs of 128 MB took {min(slabs):.3f}-{max(slabs):.3f} times as long" in src("falsifier.rs")
+    per_line = ratios("two atomic loads and a branch on every line")
+    in_struct = ratios("read once a call and held in the periodic kernel's struct")
+    assert f"{min(per_line):.3f}-{max(per_line):.3f} of the session start's" in src("simd/prefetch.rs")
+    assert f"to {min(per_line):.3f}-{max(per_line):.3f} of the session start's speed" in page
+    call = section.split("\na call on every line's path")[1].split("\ntwo atomic")[0]
+    floor = [float(x) for pair in re.findall(r"new/floor best ([\d.]+) paired ([\d.]+)", call) for x in pair]
+    assert len(floor) == 4 and f"16 read {min(floor):.2f}-{max(floor):.2f} of the floor" in page
+    scan = text.split("\n=== session 19: prefetch scan")[1].split("\n=== ")[0]
+    none = [float(r) for r in re.findall(r"^200 float\d\d typical .* -1:1: ([\d.]+)", scan, re.M)]
+    assert len(none) == 2 and f"read at {min(none):.2f}-{max(none):.2f} times the speed of `t1:8192` without one" in page
+    assert f"to {min(in_struct):.3f}-{max(in_struct):.3f} of its speed" in src("simd/periodic.rs")

@@ -43,6 +43,19 @@ def set_num_threads(n: int) -> None:
     1
     >>> edmf_rs.set_num_threads(before)
     """
+def prefetch() -> str:
+    """The prefetch of the AVX-512 short-row kernels (rows of up to two
+    vectors, and back-to-back rows whose pattern repeats within eight):
+    ``"nta:4096"`` (non-temporal, 4 KiB ahead), ``"t1:8192"`` (into L2, 8 KiB
+    ahead), ... or ``"off"``. Chosen for this CPU, or named by the environment
+    variable ``EDMF_RS_PREFETCH``. (The other kernels always use
+    ``"t1:8192"``.)"""
+
+def set_prefetch(name: str) -> None:
+    """Uses the prefetch ``name`` (as `prefetch` gives it) from now on, to
+    compare them side by side; the candidates do not depend on it. A name it
+    cannot read raises ``ValueError``."""
+
 def get_num_threads() -> int:
     """How many threads edmf_rs uses.
 

@@ -2,9 +2,11 @@
 //! order and it keeps the candidate model set and the diagnostics, so memory
 //! grows with the number of candidates, not the number of instances.
 //!
-//! Work inside a chunk is split into slabs (32 MB of predictions). The
-//! caller's `stop` check runs between slabs on the calling thread, which is how
-//! the Python layer delivers Ctrl-C; an interrupted chunk leaves no trace.
+//! Work inside a chunk is split into slabs (32 MB of predictions), each
+//! shared by the pool's threads in tasks. A chunk of several slabs runs as one
+//! job in the pool while the calling thread polls the caller's `stop` check,
+//! which is how the Python layer delivers Ctrl-C; the job stops before its
+//! next slab, and an interrupted chunk leaves no trace.
 //!
 //! A checkpointed run also needs the checksum of every row (see
 //! [`crate::digest`]); `update_digested` sums each kernel block's rows in the
@@ -12,27 +14,36 @@
 //! where it can, else right after, while they are in that core's cache,
 //! instead of reading the whole chunk from memory again.
 
-use crate::candidates::{count_bits, reserve, BitSink, CandidateSet, Segment};
+use crate::candidates::{reserve, CandidateSet, Segment};
 use crate::digest::{Part, Pending, RowDigest, Value, PIECE_ROWS};
 use crate::error::{EdmfError, Result};
-use crate::kernel::{diagnose_bits_with, screen_bits_with, Isa, Prediction, ScreenPlan, SensorBounds, Tally};
+use crate::kernel::{Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
-use crate::summing::{self, Summed};
+use crate::slab_tasks::{blocks_per_task, diagnose_parallel, screen_parallel};
 use crate::thresholds::Thresholds;
 use crate::violations::Violations;
-use rayon::prelude::*;
 use rayon::ThreadPool;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::time::Duration;
 
 /// Rows of a block, the unit of candidate counts and checksum parts; a rayon
-/// task takes one or more (see [`TASK_BYTES`]).
-const BLOCK_ROWS: usize = 1024;
-/// Bytes of predictions per slab between two `stop` checks: a few
-/// milliseconds of work, large enough that handing each slab to the pool
-/// costs little. In bytes, not values, so f32 rows pay that hand-over as
-/// rarely as f64 ones: it took 20-41 µs a slab, against about 0.5 ms to read
-/// 32 MB at 70 GB/s (one thread, AMD EPYC (Zen 4), `cargo bench --
-/// falsify_short` with slabs of 2^18 values; see `docs/performance.md`).
+/// task takes one or more (see [`crate::slab_tasks::TASK_BYTES`]).
+pub(crate) const BLOCK_ROWS: usize = 1024;
+/// Bytes of predictions per slab: a few milliseconds of work, large enough
+/// that sharing each slab among the pool's threads costs little (a chunk of
+/// one slab is handed to the pool from the calling thread: it took 20-41 µs
+/// a slab, against about 0.5 ms to read 32 MB at 70 GB/s; one thread, AMD
+/// EPYC (Zen 4), `cargo bench -- falsify_short` with slabs of 2^18 values),
+/// small enough for its per-row buffers (through `falsify`, slabs of 128 MB
+/// took 0.992-1.220 times as long, the most for f32 rows of 5:
+/// `benches/results-short-rows.txt`, "session 19: where the time went"). In
+/// bytes, not values, so f32 rows are shared as rarely as f64 ones.
 const SLAB_BYTES: usize = 32 << 20;
+/// How often a chunk of several slabs polls the caller's `stop` (Ctrl-C):
+/// the thread that polls is not one of the pool's, so polling costs the
+/// work nothing but that thread's brief wake.
+const STOP_POLL: Duration = Duration::from_millis(10);
 /// Predictions in a slab below which it runs on the calling thread: waking
 /// the pool's threads for it costs more than sharing the work (a hand-over
 /// to a sleeping pool took 0.1-0.2 ms on a 2-core VM, AMD EPYC: `falsify`
@@ -237,35 +248,96 @@ impl Falsifier {
     }
 
     /// The slabs of one chunk; the chunk's tally, or the error that stopped it.
+    ///
+    /// A chunk of several slabs runs as one job in the pool while this
+    /// thread only polls `stop` (every [`STOP_POLL`]): handing each slab to
+    /// the pool from here and waiting for it kept each of the pool's threads
+    /// idle 13-19 µs at a slab's start and 31-67 µs at its end on a 2-core VM
+    /// (AMD EPYC; `benches/results-short-rows.txt`, "session 19: where the
+    /// time went"), 5-10 % of reading 32 MB there. `stop` is also polled once
+    /// the chunk is done, so a Ctrl-C during the call is never missed.
     fn falsify_slabs<T: Prediction + Value>(
         &mut self,
         chunk: Matrix<'_, T>,
         pool: &ThreadPool,
         stop: &mut dyn FnMut() -> bool,
+        pending: Option<&mut Pending>,
+    ) -> Result<Tally> {
+        let cancel = AtomicBool::new(false);
+        // On one of the pool's own threads (a caller inside the pool), waiting
+        // here for a job on the pool could wait forever: slab by slab instead.
+        let result = if chunk.rows() <= self.first_slab_rows::<T>(pool) || pool.current_thread_index().is_some() {
+            self.slabs(chunk, pool, &cancel, pending)
+        } else {
+            let (sender, results) = mpsc::channel();
+            let (this, cancel) = (&mut *self, &cancel);
+            pool.in_place_scope(|scope| {
+                scope.spawn(move |_| {
+                    // A send fails only if this thread stopped waiting, which it does not.
+                    let _ = sender.send(this.slabs(chunk, pool, cancel, pending));
+                });
+                loop {
+                    match results.recv_timeout(STOP_POLL) {
+                        Ok(result) => return result,
+                        Err(RecvTimeoutError::Timeout) => {
+                            if !cancel.load(Ordering::Relaxed) && stop() {
+                                cancel.store(true, Ordering::Relaxed);
+                            }
+                        }
+                        // The job panicked: the scope re-raises its panic on return.
+                        Err(RecvTimeoutError::Disconnected) => return Err(EdmfError::Interrupted),
+                    }
+                }
+            })
+        };
+        match result {
+            // Done, but a Ctrl-C came meanwhile: the chunk goes too.
+            Ok(_) if cancel.load(Ordering::Relaxed) || stop() => Err(EdmfError::Interrupted),
+            done_or_error => done_or_error,
+        }
+    }
+
+    /// Rows of a slab of `T` (see [`SLAB_BYTES`]), whole rounds of tasks for
+    /// the pool's threads: with an odd count one thread works alone at the
+    /// end of every slab (rows of 200 sensors: 21 blocks a slab, the last
+    /// one, about 5 % of the work, on one of 2 threads while the other waits).
+    fn slab_rows<T>(&self, pool: &ThreadPool) -> usize {
+        let n_m = self.n_sensors();
+        let threads = pool.current_num_threads().max(1);
+        let task_rows = blocks_per_task::<T>(n_m) * BLOCK_ROWS;
+        let slab_values = SLAB_BYTES / std::mem::size_of::<T>();
+        (slab_values / n_m).div_ceil(task_rows).max(1).next_multiple_of(threads) * task_rows
+    }
+
+    /// Rows of the next slab: until the screening order is known, a short
+    /// slab is diagnosed to learn it.
+    fn first_slab_rows<T>(&self, pool: &ThreadPool) -> usize {
+        let slab_rows = self.slab_rows::<T>(pool);
+        if self.mode == Mode::Screen && self.screen_plan.is_none() {
+            LEARN_ROWS.min(slab_rows)
+        } else {
+            slab_rows
+        }
+    }
+
+    /// The slabs of a chunk one after the other, until done or `cancel`.
+    fn slabs<T: Prediction + Value>(
+        &mut self,
+        chunk: Matrix<'_, T>,
+        pool: &ThreadPool,
+        cancel: &AtomicBool,
         mut pending: Option<&mut Pending>,
     ) -> Result<Tally> {
         let (rows, n_m) = (chunk.rows(), self.n_sensors());
-        // Whole rounds of tasks for the pool's threads: with an odd count
-        // one thread works alone at the end of every slab (rows of 200
-        // sensors: 21 blocks a slab, the last one, about 5 % of the work,
-        // on one of 2 threads while the other waits).
         let threads = pool.current_num_threads().max(1);
         let per_task = blocks_per_task::<T>(n_m);
-        let task_rows = per_task * BLOCK_ROWS;
-        let slab_values = SLAB_BYTES / std::mem::size_of::<T>();
-        let slab_rows = (slab_values / n_m).div_ceil(task_rows).max(1).next_multiple_of(threads) * task_rows;
         let mut chunk_tally = Tally::zeros(n_m);
         let mut first = 0;
         while first < rows {
-            // Until the screening order is known, a short slab is diagnosed to learn it.
-            let learning = self.mode == Mode::Screen && self.screen_plan.is_none();
-            let last = (first
-                + if learning {
-                    LEARN_ROWS.min(slab_rows)
-                } else {
-                    slab_rows
-                })
-            .min(rows);
+            if cancel.load(Ordering::Relaxed) {
+                return Err(EdmfError::Interrupted);
+            }
+            let last = (first + self.first_slab_rows::<T>(pool)).min(rows);
             let slab = chunk.slice_rows(first, last);
             // Per-row counts only when kept: else the kernels write candidate bits alone.
             let keep = self.keep_violations && self.mode == Mode::Diagnose;
@@ -328,174 +400,8 @@ impl Falsifier {
                 _ => {}
             }
             first = last;
-            if stop() {
-                return Err(EdmfError::Interrupted);
-            }
         }
         Ok(chunk_tally)
-    }
-}
-
-/// When summing: the instance index of the slab's first row; and one slot
-/// per block of the slab for its checksum sums (left alone when not summing).
-type Summing<'b> = (Option<u64>, &'b mut [Part]);
-
-/// Rows of a slab, their rejecting-sensor counts (empty when not kept),
-/// each block's candidate count, and the slab's candidate bits
-/// (`BLOCK_ROWS / 64` words a block).
-type Verdicts<'a> = (usize, &'a mut [u32], &'a mut [usize], &'a mut [u64]);
-
-/// One task: its index, its rows' counts (empty when not kept), its blocks'
-/// candidate counts, its candidate words and its blocks' checksum slots.
-type Task<'a> = (usize, (((&'a mut [u32], &'a mut [usize]), &'a mut [u64]), &'a mut [Part]));
-
-/// Bytes of predictions a task reads, at least: the kernels pay a fixed cost
-/// per call (set-up, and the diagnostics' per-sensor totals), which a block
-/// of 1,024 short rows (20 KB for f32 rows of 5) does not amortise (`cargo
-/// bench -- falsify_short`; see `docs/performance.md`).
-const TASK_BYTES: usize = 128 << 10;
-
-/// Blocks per task for rows of `n_m` values of `T`: enough for
-/// [`TASK_BYTES`]. A task of 64 blocks or fewer lies in at most two
-/// checksum blocks, which one [`Part`] holds, so summing tasks are as long
-/// (one block each, until session 17, paid the per-call cost every 1,024
-/// rows: the in-pass checksum cost 1.2 times the falsifier alone from cache).
-fn blocks_per_task<T>(n_m: usize) -> usize {
-    let block_bytes = BLOCK_ROWS * n_m.max(1) * std::mem::size_of::<T>();
-    TASK_BYTES.div_ceil(block_bytes).clamp(1, 64)
-}
-
-/// The tasks of a slab, `group` blocks each (see [`Task`]).
-fn tasks<'a>(verdicts: Verdicts<'a>, slots: &'a mut [Part], group: usize) -> Vec<Task<'a>> {
-    let (rows, out, counts, words) = verdicts;
-    let task_rows = group * BLOCK_ROWS;
-    // Counts, when kept, one task's rows a task like the rest; else empty slices.
-    let n_tasks = rows.div_ceil(task_rows);
-    let mut outs: Vec<&'a mut [u32]> = if out.is_empty() {
-        Vec::new()
-    } else {
-        out.chunks_mut(task_rows).collect()
-    };
-    outs.resize_with(n_tasks, Default::default);
-    outs.into_iter()
-        .zip(counts.chunks_mut(group))
-        .zip(words.chunks_mut(task_rows / 64))
-        .zip(slots.chunks_mut(group))
-        .enumerate()
-        .collect()
-}
-
-/// Each block's candidate count from its words.
-fn count_blocks(counts: &mut [usize], words: &[u64]) {
-    for (count, w) in counts.iter_mut().zip(words.chunks(BLOCK_ROWS / 64)) {
-        *count = count_bits(w);
-    }
-}
-
-/// Runs in the caller's pool (on this thread when `serial`), in tasks of
-/// `group` blocks; each block's candidate count into
-/// `counts`, and, when summing, the checksum sums of its rows into its slot.
-fn diagnose_parallel<T: Prediction + Value>(
-    m: Matrix<'_, T>,
-    b: &SensorBounds,
-    verdicts: Verdicts<'_>,
-    (summing, group): (Summing<'_>, usize),
-    serial: bool,
-) -> Tally {
-    let (n_m, isa, rows) = (b.len(), Isa::detect(), verdicts.0);
-    let (sum_from, slots) = summing;
-    let task = |(mut t, mut buf): (Tally, Vec<T>), (k, (((o, counts), w), slots)): Task<'_>| {
-        let first = k * group * BLOCK_ROWS;
-        let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
-        w.fill(0);
-        let keep = !o.is_empty();
-        match sum_from {
-            // Summed by the kernel as it reads them, or right after (in L2).
-            Some(base) => {
-                // The task's part in its first slot, the others empty (a task's
-                // rows lie in at most two checksum blocks).
-                slots.fill(Part::default());
-                let fused = summing::kernel_sums(isa, span, b);
-                slots[0] = summing::part_after(span, base + first as u64, &mut buf, fused, |r0, r1, sum| {
-                    let mut sink = BitSink::new(w, r0);
-                    let (c, rows) = (if keep { Some(&mut o[r0..r1]) } else { None }, span.slice_rows(r0, r1));
-                    let summed = if sum {
-                        summing::diagnose_bits_summed_with(isa, rows, b, c, &mut sink, &mut t)
-                    } else {
-                        diagnose_bits_with(isa, rows, b, c, &mut sink, &mut t);
-                        Summed::default()
-                    };
-                    sink.finish();
-                    summed
-                })
-            }
-            None => {
-                let mut sink = BitSink::new(w, 0);
-                let c = if keep { Some(&mut o[..]) } else { None };
-                diagnose_bits_with(isa, span, b, c, &mut sink, &mut t);
-                sink.finish();
-            }
-        }
-        count_blocks(counts, w);
-        (t, buf)
-    };
-    let tasks = tasks(verdicts, slots, group);
-    if serial {
-        return tasks.into_iter().fold((Tally::zeros(n_m), Vec::new()), task).0;
-    }
-    tasks
-        .into_par_iter()
-        .fold(|| (Tally::zeros(n_m), Vec::new()), task)
-        .map(|(t, _)| t)
-        .reduce(|| Tally::zeros(n_m), Tally::merge)
-}
-
-/// [`diagnose_parallel`] without diagnostics.
-fn screen_parallel<T: Prediction + Value>(
-    m: Matrix<'_, T>,
-    b: &SensorBounds,
-    plan: &ScreenPlan,
-    verdicts: Verdicts<'_>,
-    (summing, group): (Summing<'_>, usize),
-    serial: bool,
-) {
-    let (isa, rows) = (Isa::detect(), verdicts.0);
-    let (sum_from, slots) = summing;
-    let task = |buf: &mut Vec<T>, (k, (((_, counts), w), slots)): Task<'_>| {
-        let first = k * group * BLOCK_ROWS;
-        let span = m.slice_rows(first, (first + group * BLOCK_ROWS).min(rows));
-        w.fill(0);
-        match sum_from {
-            // As in `diagnose_parallel`.
-            Some(base) => {
-                slots.fill(Part::default());
-                let fused = summing::kernel_sums(isa, span, b);
-                slots[0] = summing::part_after(span, base + first as u64, buf, fused, |r0, r1, sum| {
-                    let (mut sink, rows) = (BitSink::new(w, r0), span.slice_rows(r0, r1));
-                    let summed = if sum {
-                        summing::screen_bits_summed_with(isa, rows, b, plan, &mut sink)
-                    } else {
-                        screen_bits_with(isa, rows, b, plan, &mut sink);
-                        Summed::default()
-                    };
-                    sink.finish();
-                    summed
-                })
-            }
-            None => {
-                let mut sink = BitSink::new(w, 0);
-                screen_bits_with(isa, span, b, plan, &mut sink);
-                sink.finish();
-            }
-        }
-        count_blocks(counts, w);
-    };
-    let tasks = tasks(verdicts, slots, group);
-    if serial {
-        let mut buf = Vec::new();
-        tasks.into_iter().for_each(|t| task(&mut buf, t));
-    } else {
-        tasks.into_par_iter().for_each_init(Vec::new, task);
     }
 }
 

@@ -121,24 +121,27 @@ fn whole_blocks_of_candidates_and_partial_ones_are_collected() {
 }
 
 #[test]
-fn the_learning_slab_is_no_longer_than_a_slab() {
-    // 1024 f32 sensors: a slab is 8192 rows, shorter than LEARN_ROWS; Ctrl-C
-    // must be polled as often while the screening order is learned.
-    let (rows, n_m) = (LEARN_ROWS, 1024);
+fn stop_is_polled_by_every_call() {
+    // One slab: polled once, after it. Several (the learning slab, then the
+    // rest, run as one job in the pool): polled while they run and once
+    // after, so a Ctrl-C during any call is seen.
+    let n_m = 4;
     let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
-    let data = vec![0f32; rows * n_m];
-    let mut polls = [0; 2];
-    for (k, mode) in [Mode::Diagnose, Mode::Screen].into_iter().enumerate() {
+    let data = predictions(LEARN_ROWS + 1, n_m);
+    let m = Matrix::row_major(&data, LEARN_ROWS + 1, n_m).unwrap();
+    let reference = run(&data, n_m, 1000, 1, Mode::Diagnose);
+    for (mode, slabs) in [(Mode::Diagnose, 1), (Mode::Screen, 2)] {
         let mut f = Falsifier::new(&vec![0.0; n_m], &thr, mode, false).unwrap();
-        let m = Matrix::row_major(&data, rows, n_m).unwrap();
+        assert_eq!(m.rows() <= f.first_slab_rows::<f64>(&pool(2)), slabs == 1);
+        let mut polls = 0;
         f.update(m, &pool(2), &mut || {
-            polls[k] += 1;
+            polls += 1;
             false
         })
         .unwrap();
+        assert!(if slabs == 1 { polls == 1 } else { polls >= 1 }, "{mode:?}: {polls} polls");
+        assert_eq!(f.candidates_since(0), reference.candidates_since(0));
     }
-    assert_eq!(polls, [rows * n_m * 4 / SLAB_BYTES; 2]);
-    assert_eq!(polls, [2; 2]);
 }
 
 #[test]
@@ -150,20 +153,52 @@ fn wrong_width_is_an_error_and_interruption_leaves_no_trace() {
     assert!(f
         .update(Matrix::row_major(&bad, 1, 3).unwrap(), &p, &mut || false)
         .is_err());
-    // Stopped after the first slab of the chunk: its candidates go too.
+    // Stopped at the first poll, in a chunk of two slabs or of one: the
+    // chunk's candidates and counts go too, and the next chunk is taken.
     let rows = SLAB_BYTES / 8; // two slabs of two f64 sensors
     let data = vec![0.0; 2 * rows];
-    let m = Matrix::row_major(&data, rows, 2).unwrap();
-    let mut asked = 0;
-    let mut second = || {
-        asked += 1;
-        asked == 2
-    };
-    assert_eq!(f.update(m, &p, &mut second), Err(EdmfError::Interrupted));
-    assert_eq!(asked, 2);
-    assert_eq!(f.n_instances(), 0);
+    for rows in [rows, 100] {
+        let m = Matrix::row_major(&data[..2 * rows], rows, 2).unwrap();
+        let mut asked = 0;
+        let mut first = || {
+            asked += 1;
+            true
+        };
+        assert_eq!(f.update(m, &p, &mut first), Err(EdmfError::Interrupted));
+        assert_eq!(asked, 1);
+        assert_eq!(f.n_instances(), 0);
+        assert!(f.candidates().is_empty());
+        assert_eq!(f.violations().unwrap().unwrap().len(), 0);
+    }
+    f.update(Matrix::row_major(&data[..200], 100, 2).unwrap(), &p, &mut || false).unwrap();
+    assert_eq!((f.n_instances(), f.n_candidates()), (100, 100));
+    assert_eq!(f.violations().unwrap().unwrap(), vec![0; 100]);
+}
+
+#[test]
+fn a_caller_on_the_pools_own_thread_is_served_slab_by_slab() {
+    // A one-thread pool whose only thread calls: a job in the pool would never run.
+    let (n, n_m) = (LEARN_ROWS + 1, 4);
+    let data = predictions(n, n_m);
+    let reference = run(&data, n_m, 1000, 1, Mode::Screen);
+    let thr = Thresholds::new(vec![-1.0; n_m], vec![1.0; n_m]).unwrap();
+    let p = pool(1);
+    let f = p.install(|| {
+        let mut f = Falsifier::new(&vec![0.0; n_m], &thr, Mode::Screen, false).unwrap();
+        f.update(Matrix::row_major(&data, n, n_m).unwrap(), &p, &mut || false).unwrap();
+        f
+    });
+    assert_eq!(f.candidates_since(0), reference.candidates_since(0));
+}
+
+#[test]
+fn a_cancelled_job_stops_before_its_next_slab() {
+    let thr = Thresholds::new(vec![-1.0; 2], vec![1.0; 2]).unwrap();
+    let mut f = Falsifier::new(&[0.0, 0.0], &thr, Mode::Diagnose, true).unwrap();
+    let data = vec![0.0; 200];
+    let m = Matrix::row_major(&data, 100, 2).unwrap();
+    assert_eq!(f.slabs(m, &pool(1), &AtomicBool::new(true), None).err(), Some(EdmfError::Interrupted));
     assert!(f.candidates().is_empty());
-    assert_eq!(f.violations().unwrap().unwrap().len(), 0);
 }
 
 #[test]

@@ -257,6 +257,9 @@ impl Isa {
             }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
+                // Every AVX-512 kernel is reached through here: its prefetch
+                // is chosen before it runs (see `simd::prefetch::Prefetch::now`).
+                crate::simd::prefetch::Prefetch::current();
                 std::arch::is_x86_feature_detected!("avx512f")
                     && std::arch::is_x86_feature_detected!("popcnt")
                     && std::arch::is_x86_feature_detected!("bmi1")

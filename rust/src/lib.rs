@@ -23,6 +23,7 @@ mod falsifier_digest_tests;
 pub mod kernel;
 pub mod matrix;
 pub mod screening;
+mod slab_tasks;
 pub mod summing;
 #[cfg(target_arch = "x86_64")]
 mod simd;
@@ -37,3 +38,7 @@ pub use kernel::{Isa, Prediction, Tally};
 pub use matrix::Matrix;
 pub use screening::{screen, Screened};
 pub use thresholds::{min_samples, shortest_interval, shortest_intervals, Thresholds};
+/// How the vector kernels prefetch (x86-64): chosen per CPU, settable to
+/// compare.
+#[cfg(target_arch = "x86_64")]
+pub use simd::prefetch::{Prefetch, PREFETCH_ENV};

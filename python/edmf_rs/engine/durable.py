@@ -39,11 +39,12 @@ def from_accumulator(acc, measurements: np.ndarray, thresholds: Thresholds, **mo
     dense); their indices are formed only if ``candidate_indices`` is read."""
     tally = acc.tally()
     violations = acc.take_violations()
+    count = int(acc.n_candidates)  # before the candidates are moved out
     return FalsificationResult(
         thresholds=thresholds,
         measurements=measurements,
         n_instances=int(acc.n_instances),
-        candidate_indices=CandidateSegments(acc.take_candidate_segments()),
+        candidate_indices=CandidateSegments(acc.take_candidate_segments(), count=count),
         per_sensor_falsified=None if tally is None else readonly(tally[0].astype(np.int64)),
         falsified_only_by=None if tally is None else readonly(tally[1].astype(np.int64)),
         n_invalid=None if tally is None else int(tally[2]),

@@ -94,6 +94,42 @@ fn mahalanobis_squared<'py>(
     Ok(d.into_pyarray(py))
 }
 
+/// The prefetch of the AVX-512 short-row kernels (rows of up to two
+/// vectors, and back-to-back rows whose pattern repeats within eight):
+/// ``"nta:4096"`` (non-temporal, 4 KiB ahead), ``"t1:8192"`` (into L2, 8 KiB
+/// ahead), ... or ``"off"``. Chosen for this CPU, or named by the environment
+/// variable ``EDMF_RS_PREFETCH``. (The other kernels always use
+/// ``"t1:8192"``.)
+#[pyfunction]
+fn prefetch() -> String {
+    #[cfg(target_arch = "x86_64")]
+    return edmf_core::Prefetch::current().name();
+    #[cfg(not(target_arch = "x86_64"))]
+    return "off".into();
+}
+
+/// Uses the prefetch ``name`` (as `prefetch` gives it) from now on, to
+/// compare them side by side; the candidates do not depend on it. A name it
+/// cannot read raises ``ValueError``.
+#[pyfunction]
+fn set_prefetch(name: &str) -> PyResult<()> {
+    #[cfg(target_arch = "x86_64")]
+    let parsed = edmf_core::Prefetch::from_name(name);
+    #[cfg(not(target_arch = "x86_64"))]
+    let parsed = (name == "off").then_some(());
+    match parsed {
+        Some(p) => {
+            #[cfg(target_arch = "x86_64")]
+            p.set();
+            let _ = p;
+            Ok(())
+        }
+        None => Err(PyValueError::new_err(format!(
+            "name: expected 't0', 't1', 't2' or 'nta', ':' and bytes ahead (a multiple of 64 up to 1048576), or 'off'; got {name:?}"
+        ))),
+    }
+}
+
 /// Streaming falsification (Eq. 8): feed chunks in order, read the results.
 #[pyclass(module = "edmf_rs._core")]
 struct Falsifier {
@@ -224,6 +260,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mahalanobis_squared, m)?)?;
     m.add_function(wrap_pyfunction!(pool::set_num_threads, m)?)?;
     m.add_function(wrap_pyfunction!(pool::get_num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(prefetch, m)?)?;
+    m.add_function(wrap_pyfunction!(set_prefetch, m)?)?;
     m.add_class::<Falsifier>()?;
     m.add_function(wrap_pyfunction!(screening::screen_emulator, m)?)?;
     m.add_class::<digest::RowDigest>()?;

@@ -2,6 +2,7 @@
 //! sixteen) with the acceptance intervals, straight into mask registers; the
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
+use super::prefetch::Prefetch;
 use super::medium;
 use super::checksum::{Fletcher, FletcherRows, RowsRead};
 use super::periodic::{Avx512Vectors, NoSums, Periodic, SumVectors};
@@ -116,10 +117,11 @@ fn diagnose_row<T: Prediction>(
         return (0, false, k.saturating_sub(1));
     }
     let (mut n, mut nan, mut first) = (0u32, 0u32, usize::MAX);
+    let pf = Prefetch::FIXED; // see `Prefetch::now` for which kernels choose
     let mut tally = |j: usize, lanes: u32| {
         // The first visit of the row asks for the lines ahead, spread as in `any_rejecting`.
         if !after_candidate {
-            super::prefetch_line(row.as_ptr().wrapping_add(j));
+            pf.line(row.as_ptr().wrapping_add(j));
         }
         // SAFETY: AVX-512F is enabled; the lanes lie below `k`, within `row`,
         // and the acceptance vectors are padded.
@@ -145,7 +147,7 @@ fn diagnose_row<T: Prediction>(
 /// Rejecting lanes of every vector of `row`, or'ed: nonzero iff some sensor
 /// rejects the row (a NaN is outside every interval). Every vector, in
 /// column order, without a branch, each asking first for the line
-/// `PREFETCH_BYTES` past it.
+/// the prefetch distance past it (`super::prefetch`).
 ///
 /// Why not stop at the first rejecting block, most rejecting first, and
 /// prefetch the whole row at its start, as this did: from memory, rows read
@@ -167,13 +169,13 @@ fn diagnose_row<T: Prediction>(
 unsafe fn any_rejecting<T: Prediction>(row: &[T], accept: &[Vec<T>; 2]) -> u32 {
     let (k, w) = (row.len(), T::W512);
     let whole = k - k % w;
-    let mut any = 0;
+    let (mut any, pf) = (0, Prefetch::FIXED);
     for j in (0..whole).step_by(w) {
-        super::prefetch_line(row.as_ptr().wrapping_add(j));
+        pf.line(row.as_ptr().wrapping_add(j));
         any |= group(row, accept, j, prefix(w)).0;
     }
     if whole < k {
-        super::prefetch_line(row.as_ptr().wrapping_add(whole));
+        pf.line(row.as_ptr().wrapping_add(whole));
         any |= group(row, accept, whole, prefix(k - whole)).0;
     }
     any

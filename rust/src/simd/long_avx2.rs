@@ -17,6 +17,7 @@
 //! with this kernel, sections "session 16 AVX2 final code", 0.79-1.04 and
 //! 0.96-1.05).
 
+use super::prefetch::Prefetch;
 use super::checksum::RowsRead;
 use super::periodic_avx2::bit_bytes;
 use crate::kernel::{diagnose_impl, Prediction, SensorBounds, Tally, BLOCK};
@@ -80,7 +81,7 @@ impl<S: AsRef<[__m256i]> + AsMut<[__m256i]>> ByteCounts<S> {
 /// sensor, the bits of its lanes outside their intervals (NaN is outside),
 /// its values and whether it is the row's last vector, which loads only the
 /// lanes within the row (the others 0, and not outside). Two vectors (64
-/// bytes) a step, each step asking first for the line `PREFETCH_BYTES` past
+/// bytes) a step, each step asking first for the line the prefetch distance past
 /// it when `PREFETCH`, and the row's last value's at the end (see
 /// `avx512::any_rejecting` for why the prefetches are spread over the row).
 ///
@@ -95,6 +96,7 @@ unsafe fn each_vector<T: Prediction, const PREFETCH: bool>(
 ) {
     let (k, h, p) = (row.len(), T::W512 / 2, row.as_ptr());
     let (low, high) = (accept[0].as_ptr(), accept[1].as_ptr());
+    let pf = Prefetch::FIXED;
     let mut test = |j: usize| {
         let x = T::load256(p.add(j));
         f(
@@ -107,7 +109,7 @@ unsafe fn each_vector<T: Prediction, const PREFETCH: bool>(
     let lines = k - k % (2 * h);
     for j in (0..lines).step_by(2 * h) {
         if PREFETCH {
-            super::prefetch_line(p.add(j));
+            pf.line(p.add(j));
         }
         test(j);
         test(j + h);
@@ -115,7 +117,7 @@ unsafe fn each_vector<T: Prediction, const PREFETCH: bool>(
     let mut j = lines;
     if j + h <= k {
         if PREFETCH {
-            super::prefetch_line(p.add(j));
+            pf.line(p.add(j));
         }
         test(j);
         j += h;
@@ -130,7 +132,7 @@ unsafe fn each_vector<T: Prediction, const PREFETCH: bool>(
         );
     }
     if PREFETCH && k > 0 {
-        super::prefetch_line(p.add(k - 1));
+        pf.line(p.add(k - 1));
     }
 }
 

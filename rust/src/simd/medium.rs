@@ -19,6 +19,7 @@
 //! interval (45 % of the rows rejected) 40-42 -> 84-89; f32 105-106 -> 134-157
 //! and 73-75 -> 139-152.
 
+use super::prefetch::Prefetch;
 use super::checksum::RowsRead;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -65,6 +66,7 @@ pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
     // memory rather than in V more vector counters.
     let mut only_by = [0u64; 65];
     let mut read = *sums;
+    let pf = Prefetch::FIXED; // see `Prefetch::now` for which kernels choose
     for first in (0..m.rows()).step_by(FLUSH_ROWS) {
         let end = (first + FLUSH_ROWS).min(m.rows());
         let mut accepting = [_mm512_setzero_si512(); V];
@@ -74,7 +76,7 @@ pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
             // One line ahead per vector, unrolled (the row's own loop of
             // prefetches cost a tenth of the time).
             for v in 0..V {
-                super::prefetch_line(row.as_ptr().wrapping_add(v * w));
+                pf.line(row.as_ptr().wrapping_add(v * w));
             }
             let (inside, nan) = visit_row(row.as_ptr(), &low, &high, last, &mut accepting);
             read.rows_read(row.as_ptr_range().end as *const u8);

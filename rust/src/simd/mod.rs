@@ -10,42 +10,26 @@ pub mod avx512;
 pub mod bit_counts;
 mod bit_string;
 pub mod checksum;
+pub mod cpu;
 pub mod long_avx2;
 pub mod medium;
 pub mod periodic;
 pub mod periodic_avx2;
+pub mod prefetch;
 pub mod row_batches;
 pub mod short;
 pub mod short_avx2;
 
 use std::arch::x86_64::*;
 
-/// How far ahead of the row being tested its successors are prefetched (into
-/// L2). The hardware prefetcher alone leaves these row loops waiting on
-/// memory; measured on a 2-core Xeon: 4-8 KiB ahead is best, 2 KiB is 20 %
-/// slower and no prefetch twice as slow. On an AMD EPYC (Zen 4) the short-row
-/// kernels, which prefetched 2 KiB ahead into L1, gained the same way from
-/// 8 KiB into L2: f32 rows of 5 sensors, one thread, 30 ms -> 20-25 ms per
-/// 400 MB, and 2 threads no slower in any short-row case tried.
-const PREFETCH_BYTES: usize = 8192;
-
-/// Asks for the cache lines `PREFETCH_BYTES` past a row of `len` values,
-/// i.e. a few rows ahead when rows are contiguous. A prefetch never faults,
-/// so addresses past the end of the data are harmless.
+/// Asks for the cache lines `pf` puts ahead of a row, i.e. a few rows ahead
+/// when rows are contiguous.
 #[inline(always)]
-pub fn prefetch_ahead<T>(row: &[T]) {
+pub fn prefetch_ahead<T>(pf: prefetch::Prefetch, row: &[T]) {
     let start = row.as_ptr() as *const i8;
     for line in (0..std::mem::size_of_val(row)).step_by(64) {
-        prefetch_line(start.wrapping_add(line));
+        pf.line(start.wrapping_add(line));
     }
-}
-
-/// Asks for the cache line `PREFETCH_BYTES` past `p` (one call per line
-/// read, for kernels that stream whole vectors rather than rows).
-#[inline(always)]
-pub fn prefetch_line<T>(p: *const T) {
-    // SAFETY: SSE is part of x86-64; prefetching any address is allowed.
-    unsafe { _mm_prefetch::<_MM_HINT_T1>((p as *const i8).wrapping_add(PREFETCH_BYTES)) };
 }
 
 /// A prediction type as vector lanes. The AVX2 short-row kernel

@@ -42,6 +42,7 @@
 //! is one AVX-512 register, or two AVX2 registers (`periodic_avx2`), so the
 //! period, the intervals' pattern and the verdict string are the same.
 
+use super::prefetch::Prefetch;
 use super::bit_string::{spread, BitCounts, BitTally, Bits};
 pub use super::checksum::{NoSums, SumVectors};
 use crate::candidates::BitSink;
@@ -66,6 +67,15 @@ pub trait Vectors<T: Prediction> {
     unsafe fn nan(x: Self::V) -> u32;
     /// `a + b` lane by lane. # Safety: as `load`.
     unsafe fn add(a: Self::V, b: Self::V) -> Self::V;
+    /// The level's prefetch, asked for at every line: AVX-512's as chosen
+    /// for this CPU (`Prefetch::now`), AVX2's a constant (`Prefetch::FIXED`;
+    /// held in the kernel's struct, a chosen one slowed the AVX2 instance
+    /// to 0.836-0.923 of its speed: `benches/results-short-rows.txt`,
+    /// "session 19: where the time went").
+    #[inline(always)]
+    fn prefetch() -> Prefetch {
+        Prefetch::now()
+    }
 }
 
 /// AVX-512: one register a vector.
@@ -194,9 +204,8 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     ) -> (B, B) {
         let w = T::W512;
         for v in 0..P {
-            // One cache line a vector, as far ahead as the row kernels (see
-            // `PREFETCH_BYTES`: 2 KiB into L1 was slower on Zen 4).
-            super::prefetch_line(p.add(v * w));
+            // One cache line a vector, as far ahead as the row kernels.
+            L::prefetch().line(p.add(v * w));
         }
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = ([0u32; P], [0u32; P]);
@@ -389,7 +398,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             let p = data.as_ptr().add(q * rows * k);
             let mut rejecting = [0u32; P];
             for (v, r) in rejecting.iter_mut().enumerate() {
-                super::prefetch_line(p.add(v * w));
+                L::prefetch().line(p.add(v * w));
                 let x = L::load(p.add(v * w));
                 sums.add(x);
                 *r = L::outside(x, self.low[v], self.high[v]);

@@ -14,6 +14,8 @@
 //! AVX2 but not AVX-512: there the older kernels run ([`fast_pext`]).
 
 use super::bit_string::{BitCounts, Bits};
+use super::cpu::Cpu;
+use super::prefetch::Prefetch;
 use super::periodic::{Periodic, SumVectors, Vectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
@@ -25,6 +27,10 @@ pub struct Avx2Vectors;
 impl<T: Prediction> Vectors<T> for Avx2Vectors {
     type V = [T::V256; 2];
     type Counts = ByteTally256;
+    #[inline(always)]
+    fn prefetch() -> Prefetch {
+        Prefetch::FIXED
+    }
     #[inline(always)]
     unsafe fn load(p: *const T) -> Self::V {
         [T::load256(p), T::load256(p.add(T::W512 / 2))]
@@ -162,52 +168,23 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
 /// Hygon, 0x18).
 pub fn fast_pext() -> bool {
     static FAST: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *FAST.get_or_init(|| {
-        if !std::arch::is_x86_feature_detected!("bmi2") {
-            return false;
-        }
-        // SAFETY: CPUID leaves 0 and 1 exist on every x86-64 CPU. (`__cpuid`
-        // is a safe function in newer toolchains, an unsafe one in 1.89.)
-        #[allow(unused_unsafe)]
-        let (vendor, signature) = unsafe { (__cpuid(0), __cpuid(1).eax) };
-        let name: Vec<u8> = [vendor.ebx, vendor.edx, vendor.ecx]
-            .iter()
-            .flat_map(|r| r.to_le_bytes())
-            .collect();
-        pext_is_fast(&name, signature)
-    })
+    *FAST.get_or_init(|| std::arch::is_x86_feature_detected!("bmi2") && pext_is_fast(Cpu::this()))
 }
 
-/// [`fast_pext`] for the CPU of vendor string `vendor` and CPUID leaf 1
-/// signature (`eax`) `signature`.
-fn pext_is_fast(vendor: &[u8], signature: u32) -> bool {
-    let base = (signature >> 8) & 0xF;
-    let family = if base == 0xF {
-        base + ((signature >> 20) & 0xFF)
-    } else {
-        base
-    };
-    let amd = vendor == b"AuthenticAMD" || vendor == b"HygonGenuine";
-    !(amd && family < 0x19)
+/// [`fast_pext`] for `cpu` (which has BMI2).
+fn pext_is_fast(cpu: Cpu) -> bool {
+    !(cpu.amd && cpu.family < 0x19)
 }
 
 #[cfg(test)]
 mod tests {
-    use super::pext_is_fast;
+    use super::{pext_is_fast, Cpu};
 
     #[test]
     fn pext_is_slow_on_zen_1_and_2_only() {
-        // Signatures as CPUID reports them: Zen 1 (EPYC 7601), Zen 2 (EPYC
-        // 7742), Hygon Dhyana, Zen 3 (EPYC 7763), Zen 4 (EPYC 9654), Zen 5,
-        // Intel Skylake-SP and Haswell.
-        let amd = b"AuthenticAMD";
-        assert!(!pext_is_fast(amd, 0x0080_0F12));
-        assert!(!pext_is_fast(amd, 0x0083_0F10));
-        assert!(!pext_is_fast(b"HygonGenuine", 0x0090_0F01));
-        assert!(pext_is_fast(amd, 0x00A0_0F11));
-        assert!(pext_is_fast(amd, 0x00A1_0F11));
-        assert!(pext_is_fast(amd, 0x00B0_0F00));
-        assert!(pext_is_fast(b"GenuineIntel", 0x0005_0654));
-        assert!(pext_is_fast(b"GenuineIntel", 0x0003_06F2));
+        // Zen 1-2 (0x17), Hygon (0x18), Zen 3-4 (0x19), Zen 5 (0x1A), Intel.
+        for (amd, family, fast) in [(true, 0x17, false), (true, 0x18, false), (true, 0x19, true), (true, 0x1A, true), (false, 6, true)] {
+            assert_eq!(pext_is_fast(Cpu { amd, family }), fast, "{family:#x}");
+        }
     }
 }

@@ -21,6 +21,7 @@
 //! `falsify`, screening f64 rows of 16 went from 0.66-0.69 to 1.02-1.05 of
 //! the read floor (section "session 13: side by side").
 
+use super::prefetch::Prefetch;
 use super::bit_counts::BitPlanes;
 use super::checksum::RowsRead;
 use super::short::ShortRows;
@@ -64,6 +65,7 @@ impl<T: Prediction> ShortRows<T> {
         let mut masks = [0u32; BATCH];
         let (stride, total) = (m.row_stride(), m.rows());
         let (mut word, mut filled) = (0u64, 0u32);
+        let pf = Prefetch::now();
         for b0 in (0..total).step_by(BATCH) {
             let n = BATCH.min(total - b0);
             // Bounds of the batch checked once: its last row is in `m`.
@@ -78,10 +80,10 @@ impl<T: Prediction> ShortRows<T> {
                     let p = base.add(i * stride);
                     let mut mask = 0u32;
                     for g in 0..G {
-                        // The line `PREFETCH_BYTES` ahead of each vector, as in the
-                        // other kernels (without it, screening f64 rows of 16 from
-                        // memory spent half its time on these loads: perf).
-                        super::prefetch_line(p.wrapping_add(w * g));
+                        // The line ahead of each vector, as in the other kernels
+                        // (without it, screening f64 rows of 16 from memory spent
+                        // half its time on these loads: perf).
+                        pf.line(p.wrapping_add(w * g));
                         // `wrapping_add`: the second vector of a one-vector row is never read.
                         let v = T::load512(lanes[g], p.wrapping_add(w * g));
                         let inside = T::inside512(lanes[g], v, self.low[g], self.high[g]);

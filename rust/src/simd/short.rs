@@ -16,6 +16,7 @@
 //! bit is the sensor), and NaN rows are counted only in the rare vectors
 //! holding a NaN.
 
+use super::prefetch::Prefetch;
 use super::checksum::RowsRead;
 use crate::candidates::BitSink;
 use crate::kernel::{Prediction, SensorBounds, Tally};
@@ -222,10 +223,11 @@ impl<T: Prediction> ShortRows<T> {
         let total = m.rows();
         // Candidate bits of the rows since the last push to `sink`.
         let (mut word, mut filled) = (0u64, 0usize);
+        let pf = Prefetch::FIXED; // see `Prefetch::now` for which kernels choose
         for u in 0..total.div_ceil(R) {
             let n = R.min(total - u * R);
-            // One unit is at most one vector: one line `PREFETCH_BYTES` ahead.
-            super::prefetch_line(packed.as_ptr().add(u * R * k));
+            // One unit is at most one vector: one line prefetched ahead.
+            pf.line(packed.as_ptr().add(u * R * k));
             let (bits, nan) = if n == R {
                 self.whole_unit(packed.as_ptr().add(u * R * k))
             } else {

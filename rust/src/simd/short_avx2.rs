@@ -4,6 +4,7 @@
 //! verdict as the bits of a movemask. Diagnostics come from the same bits,
 //! as in `short` (AVX-512): per-sensor and only-by counts in vector lanes.
 
+use super::prefetch::Prefetch;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
@@ -76,10 +77,10 @@ impl ShortRows4 {
     #[target_feature(enable = "avx2,popcnt")]
     pub unsafe fn screen<T: Prediction>(&self, m: Matrix<'_, T>, out: &mut [u32]) -> usize {
         assert!(out.len() == m.rows() && m.cols() == self.k);
-        let mut candidates = 0;
+        let (mut candidates, pf) = (0, Prefetch::FIXED);
         for (i, v) in out.iter_mut().enumerate() {
             let row = m.row_slice(i).expect("contiguous rows");
-            super::prefetch_ahead(row);
+            super::prefetch_ahead(pf, row);
             let rejected = self.row(row).0 != 0;
             *v = rejected as u32;
             candidates += !rejected as usize;
@@ -94,10 +95,10 @@ impl ShortRows4 {
     pub unsafe fn diagnose<T: Prediction>(&self, m: Matrix<'_, T>, out: &mut [u32], t: &mut Tally) -> usize {
         assert!(out.len() == m.rows() && m.cols() == self.k && t.per_sensor.len() == self.k);
         let (mut per, mut only) = ([_mm256_setzero_si256(); 2], [_mm256_setzero_si256(); 2]);
-        let (mut candidates, mut invalid) = (0usize, 0u64);
+        let (mut candidates, mut invalid, pf) = (0usize, 0u64, Prefetch::FIXED);
         for (i, v) in out.iter_mut().enumerate() {
             let row = m.row_slice(i).expect("contiguous rows");
-            super::prefetch_ahead(row);
+            super::prefetch_ahead(pf, row);
             let (bits, nan, lanes) = self.row(row);
             let count = bits.count_ones();
             *v = count;
