@@ -56,8 +56,10 @@ def main(argv=None) -> int:
         old = load(args.old.resolve(), "edmf_rs_old_build", Path(tmp))
         new = load(args.new.resolve(), "edmf_rs_new_build", Path(tmp))
         print(machine())
-        print(f"old: {args.old}; new: {args.new}; {old.get_num_threads()} threads; prefetch old "
-              f"{getattr(old._core, 'prefetch', lambda: 't1:8192')()}, new {getattr(new._core, 'prefetch', lambda: 't1:8192')()}")
+        # The builds by version, not by path: results files keep no machine's paths.
+        prefetch = {b: getattr(b._core, "prefetch", lambda: "t1:8192")() for b in (old, new)}
+        print(f"old: edmf_rs {old.__version__}, prefetch {prefetch[old]}; new: edmf_rs {new.__version__}, "
+              f"prefetch {prefetch[new]}; {old.get_num_threads()} threads")
         gains = []
         with ThreadPoolExecutor(2) as pool:
             for n_m in args.nm:

@@ -114,20 +114,17 @@ fn prefetch() -> String {
 #[pyfunction]
 fn set_prefetch(name: &str) -> PyResult<()> {
     #[cfg(target_arch = "x86_64")]
-    let parsed = edmf_core::Prefetch::from_name(name);
-    #[cfg(not(target_arch = "x86_64"))]
-    let parsed = (name == "off").then_some(());
-    match parsed {
-        Some(p) => {
-            #[cfg(target_arch = "x86_64")]
-            p.set();
-            let _ = p;
-            Ok(())
-        }
-        None => Err(PyValueError::new_err(format!(
-            "name: expected 't0', 't1', 't2' or 'nta', ':' and bytes ahead (a multiple of 64 up to 1048576), or 'off'; got {name:?}"
-        ))),
+    if let Some(p) = edmf_core::Prefetch::from_name(name) {
+        p.set();
+        return Ok(());
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    if name == "off" {
+        return Ok(());
+    }
+    Err(PyValueError::new_err(format!(
+        "name: expected 't0', 't1', 't2' or 'nta', ':' and bytes ahead (a multiple of 64 up to 1048576), or 'off'; got {name:?}"
+    )))
 }
 
 /// Streaming falsification (Eq. 8): feed chunks in order, read the results.
