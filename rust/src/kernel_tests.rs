@@ -545,3 +545,58 @@ fn calls_split_into_passes_match_portable() {
         assert!(0 < tw.only_by.iter().sum::<u64>() && want.iter().any(|&n| n == 0), "{k} sensors: mixed rows");
     }
 }
+
+/// The AVX2 medium kernel (rows of 9-64 sensors) counts accepting sensors
+/// in 32-bit lanes (f32) or 64-bit lanes (f64), moved to the tally between
+/// passes: flushed every 1,000 rows here, over rows of every vector count
+/// (f32 9-64 sensors: 2-8 vectors; f64: 3-16), most rejected by one sensor,
+/// some NaN, counts and tally equal the portable kernel's.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn medium_avx2_counts_survive_passes() {
+    use crate::simd::medium_avx2::{diagnose_in_passes, vectors};
+    if !Isa::Avx2.supported() {
+        return; // the level does not run here
+    }
+    fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, want: &[u32], tw: &Tally) {
+        let k = m.cols();
+        let (mut got, mut t) = (vec![0u32; m.rows()], Tally::zeros(k));
+        let v = vectors::<T>(k).expect("rows of 9-64 sensors");
+        macro_rules! arms {
+            ($($n:literal)*) => {
+                match v {
+                    // SAFETY: AVX2 and POPCNT are available (checked above), rows contiguous.
+                    $($n => unsafe { diagnose_in_passes::<T, $n, _>(m, b, &mut got, (&mut t, &mut crate::simd::checksum::NoSums), 1_000) },)*
+                    _ => unreachable!(),
+                }
+            };
+        }
+        arms!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
+        assert_eq!((&got[..], &t), (want, tw), "{k} sensors, {}", std::any::type_name::<T>());
+    }
+    for k in [9usize, 16, 17, 31, 33, 48, 50, 63, 64] {
+        let rows = 3_456;
+        let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+        let mut state = 0x1357_9BDF_2468_ACE0u64 ^ k as u64;
+        let data: Vec<f64> = (0..rows * k)
+            .map(|i| {
+                let u = crate::testing::uniform(&mut state);
+                match (u * 1e6) as usize % 200 {
+                    0 => f64::NAN,
+                    1..=3 => 1.5 * if i % 2 == 0 { 1.0 } else { -1.0 },
+                    _ => u - 0.5,
+                }
+            })
+            .collect();
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
+        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        assert!(tw.invalid > 0 && tw.only_by.iter().sum::<u64>() > 0 && want.iter().any(|&n| n == 0), "{k} sensors: mixed rows");
+        assert!(tw.per_sensor.iter().all(|&c| c > 3), "{k} sensors: every sensor rejects in several passes");
+        check(m, &b, &want, &tw);
+        let mut tw = Tally::zeros(k);
+        diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+        check(m32, &b, &want, &tw);
+    }
+}

@@ -1,6 +1,7 @@
 //! AVX2: rows of more than eight sensors are tested by `long_avx2`, in the
-//! predictions' own type; rows of up to eight by `short_avx2`, widened to
-//! f64. Rows stored back to back whose pattern repeats within eight vectors
+//! predictions' own type, except that rows of 9-64 sensors stored one
+//! after another are diagnosed by `medium_avx2` (the same work for every
+//! row); rows of up to eight by `short_avx2`, widened to f64. Rows stored back to back whose pattern repeats within eight vectors
 //! of 8 f64 or 16 f32 (rows of 5 and 10 among them), and rows of whole
 //! vectors, two or more to a period (f64 rows of 8, 16, 24 and 32 sensors,
 //! f32 of 16, 32 and 48: `Period::whole_rows`), take the periodic kernel instead
@@ -8,6 +9,7 @@
 
 use super::checksum::{Fletcher2, FletcherRows, RowsRead};
 use super::long_avx2;
+use super::medium_avx2;
 use super::periodic::{NoSums, Periodic, SumVectors};
 use super::periodic_avx2::{fast_pext, Avx2Vectors};
 use super::short_avx2::{takes, ShortRows4};
@@ -52,6 +54,18 @@ fn diagnose_rows<T: Prediction, S: RowsRead>(
         // SAFETY: AVX2 and POPCNT are enabled; `takes` checked the row width
         // and that rows are contiguous.
         unsafe { ShortRows4::new(b).diagnose(m, out, t) };
+    } else if let Some(v) = medium_avx2::vectors::<T>(m.cols()).filter(|_| m.rows() == 0 || m.row_slice(0).is_some()) {
+        // SAFETY (each arm): AVX2 and POPCNT are enabled, `vectors` gave
+        // the arm's count, rows are contiguous.
+        macro_rules! arms {
+            ($($n:literal)*) => {
+                match v {
+                    $($n => unsafe { medium_avx2::diagnose::<T, $n, S>(m, b, out, (t, sums)) },)*
+                    _ => unreachable!("rows of at most 64 sensors: 16 vectors"),
+                }
+            };
+        }
+        arms!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
     } else {
         // SAFETY: AVX2 and POPCNT are enabled.
         unsafe { long_avx2::diagnose(m, b, out, (t, sums)) }

@@ -95,18 +95,6 @@ pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
     *sums = read;
 }
 
-/// Runs `$body` with `$v` = 0, 1, .. while below `$V` (at most 8), unrolled:
-/// LLVM left this loop rolled for eight f64 vectors, with the counters and
-/// the intervals on the stack (half the speed).
-macro_rules! unrolled {
-    ($V:expr, |$v:ident| $body:block) => {
-        unrolled!(@ $V, $v, $body, 0 1 2 3 4 5 6 7)
-    };
-    (@ $V:expr, $v:ident, $body:block, $($i:literal)*) => {
-        $( if $i < $V { let $v: usize = $i; $body } )*
-    };
-}
-
 /// The accepting sensors (bit `v * W512 + l` for lane `l` of vector `v`) and
 /// the NaN lanes (any vector) of the `V` vectors of predictions at `p`,
 /// adding one to `accepting`'s lane for every accepting sensor. Vectors but

@@ -1,0 +1,171 @@
+//! AVX2 diagnostics for rows of 9-64 sensors stored one after another in
+//! memory (f32 two to eight vectors of eight, f64 three to sixteen of four),
+//! the AVX2 counterpart of `medium`: every row gets the same work, with no
+//! branch on its verdict. Each vector's comparison gives its accepting
+//! lanes as all-ones integers, which are subtracted from one counter lane
+//! per sensor (rejections = rows - acceptances: no complement, no bit
+//! expansion); the same lanes' sign bits make the row's accepting sensors
+//! one 64-bit word, whose complement's popcount is the violation count and
+//! whose lowest bit is the first rejecting sensor ("falsified only by" is
+//! one add in memory there).
+//!
+//! Why: `long_avx2`, which took these rows before, counts per bit of the
+//! row's verdict string in byte lanes and reads a row's verdict first after
+//! four candidates in a row, so with rejected rows scattered among
+//! candidates (the typical case) it paid a mispredicted branch and a bit
+//! expansion per row: f32 rows of 50 with 45 % of rows rejected ran at 73 M
+//! rows/s on one core of an AMD EPYC (Zen 4, `cargo bench -- long_rows`),
+//! 14.5 GB/s, below what each of two cores reads from memory there
+//! (`benches/results-long-rows.txt`, "session 20").
+
+use super::checksum::RowsRead;
+use super::prefetch::Prefetch;
+use crate::kernel::{Prediction, SensorBounds, Tally};
+use crate::matrix::Matrix;
+use std::arch::x86_64::*;
+
+/// Rows per pass between two flushes of the counters (32-bit lanes for
+/// f32: far below 2^32, so they never wrap).
+const FLUSH_ROWS: usize = 1 << 20;
+
+/// Vectors of `T::W512 / 2` lanes per row of `k` sensors if this kernel
+/// takes them: more than eight sensors (fewer go to `short_avx2`) and at
+/// most 64 (a row's accepting sensors fit one u64).
+pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
+    (8 < k && k <= 64).then(|| k.div_ceil(T::W512 / 2))
+}
+
+/// Writes the rejecting-sensor count of every row of `m` to `out` and adds
+/// the rows' diagnostics to `t`, for rows of `V` vectors (see [`vectors`]);
+/// tells `sums` each row it has read (the checkpoint checksum, if any).
+///
+/// # Safety
+/// AVX2 and POPCNT are available; `vectors::<T>(m.cols()) == Some(V)`; rows
+/// are contiguous (`m.row_slice` is `Some`).
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    (t, sums): (&mut Tally, &mut S),
+) {
+    diagnose_in_passes::<T, V, S>(m, b, out, (t, sums), FLUSH_ROWS)
+}
+
+/// [`diagnose`] with the counters flushed every `pass_rows` rows (tests
+/// flush far more often than [`FLUSH_ROWS`]).
+///
+/// # Safety
+/// As [`diagnose`]; `pass_rows < 2^32`.
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+pub(crate) unsafe fn diagnose_in_passes<T: Prediction, const V: usize, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    (t, sums): (&mut Tally, &mut S),
+    pass_rows: usize,
+) {
+    let (k, w, accept) = (m.cols(), T::W512 / 2, T::accepted(b));
+    assert!(vectors::<T>(k) == Some(V) && out.len() == m.rows() && t.per_sensor.len() == k);
+    assert!(k >= w && accept[0].len() >= k && accept[1].len() >= k);
+    let (low, high) = (accept[0].as_ptr(), accept[1].as_ptr());
+    // The last vector ends where the row does (k >= w): a whole load, no
+    // mask and no branch; its lanes also in the vector before are tested
+    // twice (the same verdict) and counted from that vector only.
+    let start = |v: usize| if v + 1 < V { v * w } else { k - w };
+    let row_lanes = u64::MAX >> (64 - k);
+    // Index 64: no rejecting sensor, never counted.
+    let mut only_by = [0u64; 65];
+    let mut read = *sums;
+    let pf = Prefetch::FIXED;
+    assert!(pass_rows > 0 && pass_rows < 1 << 32);
+    for first in (0..m.rows()).step_by(pass_rows) {
+        let end = (first + pass_rows).min(m.rows());
+        let mut accepting = [_mm256_setzero_si256(); V];
+        let mut invalid = 0u64;
+        for (i, n_out) in (first..end).zip(&mut out[first..end]) {
+            let row = m.row_slice(i).expect("contiguous rows (checked by the caller)");
+            let p = row.as_ptr();
+            // Two sums: half the chain of additions.
+            let (mut inside, mut sum) = (0u64, [T::zero256(); 2]);
+            unrolled!(V, |v| {
+                if v % 2 == 0 {
+                    // A line ahead every 64 bytes of the row.
+                    pf.line(p.wrapping_add(v * w));
+                }
+                let j = start(v);
+                let x = T::load256(p.add(j));
+                let yes = T::inside_lanes256(x, T::load256(low.add(j)), T::load256(high.add(j)));
+                accepting[v] = count::<T>(accepting[v], yes);
+                inside |= u64::from(sign_bits::<T>(yes)) << j;
+                sum[v % 2] = T::add256(sum[v % 2], x);
+            });
+            read.rows_read(row.as_ptr_range().end as *const u8);
+            let rejects = !inside & row_lanes;
+            let n = rejects.count_ones();
+            only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
+            // The row's sum is NaN iff a value is (or, rarely, infinities
+            // cancel). Looked for inline: a call here, even never made, had
+            // the counters stored and reloaded around it on every row.
+            invalid += u64::from(T::nan256(T::add256(sum[0], sum[1])) != 0 && row.iter().any(|x| x.to_f64().is_nan()));
+            *n_out = n;
+        }
+        add_rejections::<T, V>(&accepting, k, (end - first) as u64, &mut t.per_sensor);
+        t.invalid += invalid;
+    }
+    for (total, &c) in t.only_by.iter_mut().zip(&only_by[..k]) {
+        *total += c;
+    }
+    *sums = read;
+}
+
+/// `counter` plus one in each lane where `inside` is all ones (subtracting -1).
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn count<T: Prediction>(counter: __m256i, inside: __m256i) -> __m256i {
+    if std::mem::size_of::<T>() == 8 {
+        _mm256_sub_epi64(counter, inside)
+    } else {
+        _mm256_sub_epi32(counter, inside)
+    }
+}
+
+/// One bit per lane of `inside` (its sign bit).
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn sign_bits<T: Prediction>(inside: __m256i) -> u32 {
+    if std::mem::size_of::<T>() == 8 {
+        _mm256_movemask_pd(_mm256_castsi256_pd(inside)) as u32
+    } else {
+        _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u32
+    }
+}
+
+/// Adds to `per_sensor` (rows of `k` sensors) the rejections of `rows`
+/// rows whose accepting sensors `accepting` counted: vector `v` holds
+/// sensors `v * w ..`, the last one sensors `k - w ..`, of which those
+/// past the vector before are taken.
+///
+/// # Safety
+/// AVX2 is available.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn add_rejections<T: Prediction, const V: usize>(accepting: &[__m256i; V], k: usize, rows: u64, per_sensor: &mut [u64]) {
+    let w = T::W512 / 2;
+    for (v, acc) in accepting.iter().enumerate() {
+        let mut lanes = [0u64; 8];
+        if std::mem::size_of::<T>() == 8 {
+            _mm256_storeu_si256(lanes.as_mut_ptr() as *mut __m256i, *acc);
+        } else {
+            let mut narrow = [0u32; 8];
+            _mm256_storeu_si256(narrow.as_mut_ptr() as *mut __m256i, *acc);
+            lanes = narrow.map(u64::from);
+        }
+        let (first, skip) = if v + 1 < V { (v * w, 0) } else { ((V - 1) * w, V * w - k) };
+        for (total, &c) in per_sensor[first..].iter_mut().zip(&lanes[skip..w]) {
+            *total += rows - c;
+        }
+    }
+}

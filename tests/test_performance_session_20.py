@@ -1,0 +1,113 @@
+"""Session 20's figures in docs/performance.md ("AMD EPYC of CPU family 25
+(session 20)"): the floor tables, the kernels alone and the AVX2 medium
+kernel's side by side, recomputed from the runs recorded in
+benches/results-short-rows.txt and benches/results-long-rows.txt."""
+
+import re
+import statistics
+from pathlib import Path
+
+from test_performance_tables import ROW, _cases_table, _target
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _page() -> str:
+    return " ".join((ROOT / "docs" / "performance.md").read_text().split())
+
+
+def _runs(text: str, prefix: str) -> list[str]:
+    runs = [s for s in text.split("\n=== ") if s.startswith(prefix)]
+    assert len(runs) == 3, prefix
+    return runs
+
+
+def _misses(*levels: list[str]) -> tuple[int, int]:
+    """Medians below the issue's targets, and medians, over the levels' runs."""
+    medians = [statistics.median(v) for runs in levels for k, v in _cases_table(runs).items()
+               if statistics.median(v) < _target(k[0], k[2], k[3])]
+    return len(medians), sum(len(_cases_table(runs)) for runs in levels)
+
+
+def test_session_20_floor_figures_match_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page = _page()
+    start512, start2 = _runs(text, "session 20 start, run"), _runs(text, "session 20 start AVX2,")
+    medium2 = _runs(text, "session 20 AVX2 medium kernel,")
+    missed, total = _misses(start512, start2)
+    missed_19, total_19 = _misses(_runs(text, "session 19 final code"), _runs(text, "session 19 AVX2 final code"))
+    assert total == total_19 == 80
+    assert (f"missed the targets in {missed} of the {total} medians where session 19's runs missed {missed_19}"
+            in page)
+    floors = [float(m[5]) for run in start512 + start2 + medium2 for m in map(ROW.match, run.splitlines())
+              if m and m[4] == "diagnostics"]
+    fast = [f for f in floors if f < 17]
+    assert (f"In these nine runs the floor read the 800 MB in {min(floors):.1f}-{max(floors):.1f} ms (median "
+            f"{statistics.median(floors):.1f}), under 17 ms (more than 47 GB/s) in {len(fast)} of the "
+            f"{len(floors)} cases timed") in page
+    assert 800 / min(floors) > 60  # "At 13 ms it reads about 60 GB/s"
+
+    def by_run(key):
+        return [(float(m[5]), float(m[6])) for run in medium2 for m in map(ROW.match, run.splitlines())
+                if m and (m[1], m[2], m[3], m[4]) == key]
+
+    (f1, r1), _, (f3, r3) = by_run(("16", "f32", "typical", "diagnostics"))
+    assert (f"the same kernel reads {r1:.2f} of the floor when the floor takes {f1:.1f} ms and {r3:.2f} when it "
+            f"takes {f3:.1f} ms") in page
+    rows50 = by_run(("50", "f32", "typical", "diagnostics"))
+    assert (f"float32 typical read {', '.join(f'{r:.2f}' for _, r in rows50[:2])} and {rows50[2][1]:.2f} of floors "
+            f"of {', '.join(f'{f:.1f}' for f, _ in rows50[:2])} and {rows50[2][0]:.1f} ms") in page
+    spans = []
+    for runs in (start2, medium2):
+        table = _cases_table(runs)
+        m = [statistics.median(v) for k, v in table.items() if k[0] == "50" and k[3] == "diagnostics"]
+        spans.append(f"{min(m):.2f}-{max(m):.2f}")
+    assert f"the rows of 50 with diagnostics went from {spans[0]} (the session start's runs) to {spans[1]}" in page
+
+    # The kernels alone: per-thread read rates from the L3 cache.
+    section = text.split("\n=== session 20: the kernels alone")[1].split("\n=== ")[0]
+    rate = {n: float(g) for n, g in re.findall(r"^(\S+) [\d.]+ Mrows/s ([\d.]+) GB/s", section, re.M)}
+    slowest = sorted((v, n) for n, v in rate.items() if "/diagnose_bits/" in n and "Portable" not in n)[:4]
+    assert [n for _, n in slowest] == ["short_rows_10/typical/diagnose_bits/f32/Avx2",
+                                       "short_rows_5/typical/diagnose_bits/f32/Avx512",
+                                       "short_rows_16/typical/diagnose_bits/f32/Avx2",
+                                       "short_rows_5/typical/diagnose_bits/f32/Avx2"]
+    assert (f"float32 rows of 10 read {slowest[0][0]} GB/s at AVX2, float32 rows of 5 {slowest[1][0]} GB/s at "
+            f"AVX-512, float32 rows of 16 {slowest[2][0]} GB/s at AVX2 and float32 rows of 5 {slowest[3][0]} GB/s "
+            f"at AVX2") in page
+    assert all(30 / v > 1.9 for v, _ in slowest)  # "about twice as fast" to test 30 GB/s a core
+
+
+def test_session_20_medium_kernel_figures_match_the_recorded_runs():
+    text = (ROOT / "benches" / "results-long-rows.txt").read_text()
+    page = _page()
+    alone = text.split("\n=== session 20: the AVX2 medium kernel (rows")[1].split(
+        "\n=== session 20: the AVX2 medium kernel through")[0]
+    parts = re.split(r"^=== (old|new), run \d ===$", alone, flags=re.M)
+    rates = {}
+    for build, body in zip(parts[1::2], parts[2::2]):
+        for name, r in re.findall(r"^long_rows_50/(\w+/diagnose/f\d\d)/Avx2 ([\d.]+) Melem/s", body, re.M):
+            rates.setdefault((build, name), []).append(float(r))
+    assert len(rates) == 8 and all(len(v) == 2 for v in rates.values())
+
+    def span(build, name):
+        v = rates[(build, name)]
+        return f"{min(v):.1f}-{max(v):.1f}"
+
+    for case, dtypes in (("typical", "float32 {} -> {}, float64 {} -> {}"),
+                         ("worst", "float32 {} -> {}, float64 {} -> {}")):
+        cells = [span(b, f"{case}/diagnose/{d}") for d in ("f32", "f64") for b in ("old", "new")]
+        assert dtypes.format(*cells) in page
+    assert min(rates[("new", "typical/diagnose/f32")]) > max(rates[("old", "typical/diagnose/f32")])
+    assert max(rates[("new", "worst/diagnose/f64")]) < min(rates[("old", "worst/diagnose/f64")])
+
+    paired = text.split("\n=== session 20: the AVX2 medium kernel through")[1]
+    ratio = {(n, d, c): float(r) for n, d, c, r in
+             re.findall(r"^\s*(\d+) (f\d\d)\s+(\w+) diag .*old/new paired ([\d.]+)$", paired, re.M)}
+    assert len(ratio) == 20
+    medium = [v for k, v in ratio.items() if k[0] in ("50", "64")]
+    controls = [v for k, v in ratio.items() if k[0] in ("12", "20", "32")]
+    assert f"rows of 50 and 64 ran {min(medium):.3f}-{max(medium):.3f} times as fast" in page
+    assert f"ran {min(controls):.3f}-{max(controls):.3f} times as fast: that is the noise of the comparison" in page
+    best = max(ratio, key=ratio.get)
+    assert best[1:] == ("f32", "typical")  # "float32 typical the most"
