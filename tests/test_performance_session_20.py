@@ -111,3 +111,45 @@ def test_session_20_medium_kernel_figures_match_the_recorded_runs():
     assert f"ran {min(controls):.3f}-{max(controls):.3f} times as fast: that is the noise of the comparison" in page
     best = max(ratio, key=ratio.get)
     assert best[1:] == ("f32", "typical")  # "float32 typical the most"
+
+
+def test_session_20_prefetch_figures_match_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page = _page()
+    alone = text.split("\n=== session 20: the prefetch taken once a call (")[1].split(
+        "\n=== session 20: the prefetch taken once a call, through")[0]
+    parts = re.split(r"^=== (base|once), run \d ===$", alone, flags=re.M)
+    rows5 = {"base": [], "once": []}
+    for build, body in zip(parts[1::2], parts[2::2]):
+        rows5[build] += [float(r) for r in
+                         re.findall(r"^short_rows_5/typical/diagnose_bits/f32/Avx512 ([\d.]+) Mrows/s", body, re.M)]
+    assert len(rows5["base"]) == len(rows5["once"]) == 5
+    spans = {b: f"{min(v):.0f}-{max(v):.0f}" for b, v in rows5.items()}
+    assert f"float32 rows of 5 with diagnostics went from {spans['base']} to {spans['once']} M rows/s" in page
+    gbs = [r * 5 * 4 / 1000 for r in rows5["base"]]  # rows of 5 float32 values
+    assert f"float32 rows of 5 read {min(gbs):.1f}-{max(gbs):.1f} GB/s in the five \"base\" runs" in page
+
+    paired = text.split("\n=== session 20: the prefetch taken once a call, through falsify")[1].split("\n=== ")[0]
+    ratio = {(n, d, c, mode): float(r) for n, d, c, mode, r in
+             re.findall(r"^\s*(\d+) (f\d\d)\s+(\w+)\s+(diag|scr) .*old/new paired ([\d.]+)$", paired, re.M)}
+    assert len(ratio) == 32
+    f32_diag = {n: ratio[(n, "f32", "typical", "diag")] for n in ("5", "10", "12", "20")}
+    assert (f"rows of 5 ran {f32_diag['5']:.3f} times as fast, rows of 10 {f32_diag['10']:.3f}, rows of 12 "
+            f"{f32_diag['12']:.3f} and rows of 20 {f32_diag['20']:.3f}") in page
+    assert all(r > 1.02 for r in f32_diag.values())
+    others = [r for k, r in ratio.items() if not (k[1:] == ("f32", "typical", "diag"))]
+    assert (f"the other cases ran {min(others):.3f}-{max(others):.3f} times as fast (median "
+            f"{statistics.median(ratio.values()):.3f} over all 32)") in page
+
+
+def test_readme_gives_session_20_figures_as_recorded():
+    """The README's session 20 sentences carry the performance page's figures."""
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    page = _page()
+    span = re.search(r"In these nine runs the floor read the 800 MB in ([\d.]+-[\d.]+) ms", page)[1]
+    assert f"(the 800 MB read in {span} ms)" in readme
+    f32 = [float(r) for r in re.search(r"rows of 5 ran ([\d.]+) times as fast, rows of 10 ([\d.]+), rows of 12 "
+                                       r"([\d.]+) and rows of 20 ([\d.]+)", page).groups()]
+    assert f"ran {min(f32):.3f}-{max(f32):.3f} times as fast side by side" in readme
+    medium = re.search(r"rows of 50 and 64 ran ([\d.]+-[\d.]+) times as fast", page)[1]
+    assert f"rows of 50 and 64 ran {medium} times as fast." in readme

@@ -67,11 +67,13 @@ pub trait Vectors<T: Prediction> {
     unsafe fn nan(x: Self::V) -> u32;
     /// `a + b` lane by lane. # Safety: as `load`.
     unsafe fn add(a: Self::V, b: Self::V) -> Self::V;
-    /// The level's prefetch, asked for at every line: AVX-512's as chosen
-    /// for this CPU (`Prefetch::now`), AVX2's a constant (`Prefetch::FIXED`;
-    /// held in the kernel's struct, a chosen one slowed the AVX2 instance
-    /// to 0.836-0.923 of its speed: `benches/results-short-rows.txt`,
-    /// "session 19: where the time went").
+    /// The level's prefetch, taken once a call and held in a register by
+    /// the period loops: AVX-512's as chosen for this CPU (`Prefetch::now`),
+    /// AVX2's a constant (`Prefetch::FIXED`; a chosen one slowed the AVX2
+    /// instance to 0.836-0.923 of its speed: `benches/results-short-rows.txt`,
+    /// "session 19: where the time went"). Read again at every line, the
+    /// AVX-512 loop loaded the hint and jumped through a table for each
+    /// vector (section "session 20: the prefetch taken once a call").
     #[inline(always)]
     fn prefetch() -> Prefetch {
         Prefetch::now()
@@ -200,12 +202,12 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     unsafe fn period_bits<B: Bits, const P: usize, const NAN: bool, S: SumVectors<T, L>>(
         &self,
         p: *const T,
-        sums: &mut S,
+        (sums, pf): (&mut S, Prefetch),
     ) -> (B, B) {
         let w = T::W512;
         for v in 0..P {
             // One cache line a vector, as far ahead as the row kernels.
-            L::prefetch().line(p.add(v * w));
+            pf.line(p.add(v * w));
         }
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = ([0u32; P], [0u32; P]);
@@ -301,8 +303,9 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         assert!(P == self.period.vectors && P * T::W512 <= B::BITS);
         assert!(data.len() >= periods * rows * k);
         let all = u32::MAX >> (32 - rows);
+        let pf = L::prefetch();
         for q in 0..periods {
-            let (bits, _) = self.period_bits::<B, P, false, S>(data.as_ptr().add(q * rows * k), sums);
+            let (bits, _) = self.period_bits::<B, P, false, S>(data.as_ptr().add(q * rows * k), (sums, pf));
             let (_, rejected) = self.any_per_row(bits);
             sink.push((!rejected & all) as u64, rows as u32);
         }
@@ -394,11 +397,12 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         let (mut outside_totals, mut only_totals) = ([0u64; 128], [0u64; 128]);
         let mut pending = 0u32;
         let mut invalid = 0u64;
+        let pf = L::prefetch();
         for q in 0..periods {
             let p = data.as_ptr().add(q * rows * k);
             let mut rejecting = [0u32; P];
             for (v, r) in rejecting.iter_mut().enumerate() {
-                L::prefetch().line(p.add(v * w));
+                pf.line(p.add(v * w));
                 let x = L::load(p.add(v * w));
                 sums.add(x);
                 *r = L::outside(x, self.low[v], self.high[v]);
@@ -433,7 +437,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             }
             if suspect {
                 // Rare: a NaN row is never a candidate, counted once.
-                let (_, nan) = self.period_bits::<B, P, true, NoSums>(p, &mut NoSums);
+                let (_, nan) = self.period_bits::<B, P, true, NoSums>(p, (&mut NoSums, Prefetch::OFF));
                 invalid += (0..rows).filter(|r| (nan >> (r * k)).low64() & field != 0).count() as u64;
             }
             outside = outside.add(bits, P * w);

@@ -137,6 +137,9 @@ impl Prefetch {
     /// 200.
     pub const FIXED: Prefetch = Prefetch { hint: Hint::T1, bytes: 8192 };
 
+    /// No prefetch (rereading lines just read).
+    pub const OFF: Prefetch = Prefetch { hint: Hint::Off, bytes: 0 };
+
     /// The prefetch chosen for this CPU, as far as chosen: two plain loads,
     /// no call. Used by the AVX-512 short-row kernels (see the module docs).
     /// Kernels take it once a call (or a row) and pass it into their loops,
