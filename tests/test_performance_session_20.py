@@ -7,7 +7,7 @@ import re
 import statistics
 from pathlib import Path
 
-from test_performance_tables import ROW, _cases_table, _target
+from test_performance_tables import ROW, _cases_table, _level_tables, _target
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -153,3 +153,38 @@ def test_readme_gives_session_20_figures_as_recorded():
     assert f"ran {min(f32):.3f}-{max(f32):.3f} times as fast side by side" in readme
     medium = re.search(r"rows of 50 and 64 ran ([\d.]+-[\d.]+) times as fast", page)[1]
     assert f"rows of 50 and 64 ran {medium} times as fast." in readme
+
+
+def test_session_20_checksum_figures_match_the_recorded_run():
+    text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
+    section = text.split("session 20 final code (e5e0529)")[1]
+    mem = re.search(r"CPU on/off of the best times: median ([\d.]+), largest ([\d.]+)", section).groups()
+    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
+                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    assert (f"in memory a median of {mem[0]} (largest {mem[1]}), from the page cache {warm[0]} (paired: {warm[1]}), "
+            f"from the disk {cold[0]} (paired: {cold[1]})") in _page()
+    assert 1.03 < float(mem[0]) < 1.06 and 1.03 < float(warm[0]) < 1.06 and float(cold[0]) < 1.01  # "about 4-5 %"
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (f"Re-measured in session 20 on the final code (same kind of host), the medians were {mem[0]} in memory, "
+            f"{warm[0]} from the page cache (paired: {warm[1]}) and {cold[0]} from the disk.") in readme
+
+
+def test_session_20_final_floor_table_matches_the_recorded_runs():
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    page_text = (ROOT / "docs" / "performance.md").read_text()
+    page = " ".join(page_text.split())
+    (_, floors512, _), (_, floors2, _), medians = _level_tables(text, page_text, "20")
+    missed = [k for k, m in medians.items() if m < _target(k[1], k[3], k[4])]
+    by_level = {lvl: [m for k, m in medians.items() if k[0] == lvl] for lvl in ("avx512", "avx2")}
+    floors = [f for run in (floors512, floors2) for f in run[::2]]  # one floor a case (two methods a case)
+    assert (f"By the median, AVX-512 reads {min(by_level['avx512']):.2f}-{max(by_level['avx512']):.2f} of the floor "
+            f"and AVX2 {min(by_level['avx2']):.2f}-{max(by_level['avx2']):.2f}; {len(missed)} of the 80 medians miss "
+            f"the issue's targets. The floor read the 800 MB in a median of {statistics.median(floors):.1f} ms "
+            f"({min(floors):.1f}-{max(floors):.1f})") in page
+    after = text.split("\n=== session 20: after the final runs")[1].split("\n=== ")[0]
+    rows = re.findall(r"floor\s+([\d.]+) ms \| old/floor [\d.]+ \(paired [\d.]+\) \| new/floor ([\d.]+) .*"
+                      r"old/new paired ([\d.]+)", after)
+    assert len(rows) == 3
+    fl, nf, pr = ([float(r[i]) for r in rows] for i in range(3))
+    assert (f"the final build read {min(nf):.2f}-{max(nf):.2f} of floors of {min(fl):.1f}-{max(fl):.1f} ms on float32 "
+            f"rows of 5, 10 and 16 (typical, diagnostics), {min(pr):.3f}-{max(pr):.3f} times as fast") in page
