@@ -29,6 +29,19 @@ def _misses(*levels: list[str]) -> tuple[int, int]:
     return len(medians), sum(len(_cases_table(runs)) for runs in levels)
 
 
+def _alternating(text: str, start: str, end: str, labels: str, line: str) -> dict:
+    """Per (build, case), the rates of the runs between the section headers
+    `start` and `end`, whose sub-runs are headed "=== <label>, run N ===" and
+    whose rates match `line` (case, rate)."""
+    section = text.split(start)[1].split(end)[0]
+    parts = re.split(rf"^=== ({labels}), run \d ===$", section, flags=re.M)
+    rates = {}
+    for build, body in zip(parts[1::2], parts[2::2]):
+        for name, r in re.findall(line, body, re.M):
+            rates.setdefault((build, name), []).append(float(r))
+    return rates
+
+
 def test_session_20_floor_figures_match_the_recorded_runs():
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
     page = _page()
@@ -81,23 +94,18 @@ def test_session_20_floor_figures_match_the_recorded_runs():
 def test_session_20_medium_kernel_figures_match_the_recorded_runs():
     text = (ROOT / "benches" / "results-long-rows.txt").read_text()
     page = _page()
-    alone = text.split("\n=== session 20: the AVX2 medium kernel (rows")[1].split(
-        "\n=== session 20: the AVX2 medium kernel through")[0]
-    parts = re.split(r"^=== (old|new), run \d ===$", alone, flags=re.M)
-    rates = {}
-    for build, body in zip(parts[1::2], parts[2::2]):
-        for name, r in re.findall(r"^long_rows_50/(\w+/diagnose/f\d\d)/Avx2 ([\d.]+) Melem/s", body, re.M):
-            rates.setdefault((build, name), []).append(float(r))
+    rates = _alternating(text, "\n=== session 20: the AVX2 medium kernel (rows",
+                         "\n=== session 20: the AVX2 medium kernel through", "old|new",
+                         r"^long_rows_50/(\w+/diagnose/f\d\d)/Avx2 ([\d.]+) Melem/s")
     assert len(rates) == 8 and all(len(v) == 2 for v in rates.values())
 
     def span(build, name):
         v = rates[(build, name)]
         return f"{min(v):.1f}-{max(v):.1f}"
 
-    for case, dtypes in (("typical", "float32 {} -> {}, float64 {} -> {}"),
-                         ("worst", "float32 {} -> {}, float64 {} -> {}")):
+    for case in ("typical", "worst"):
         cells = [span(b, f"{case}/diagnose/{d}") for d in ("f32", "f64") for b in ("old", "new")]
-        assert dtypes.format(*cells) in page
+        assert "float32 {} -> {}, float64 {} -> {}".format(*cells) in page
     assert min(rates[("new", "typical/diagnose/f32")]) > max(rates[("old", "typical/diagnose/f32")])
     assert max(rates[("new", "worst/diagnose/f64")]) < min(rates[("old", "worst/diagnose/f64")])
 
@@ -116,13 +124,10 @@ def test_session_20_medium_kernel_figures_match_the_recorded_runs():
 def test_session_20_prefetch_figures_match_the_recorded_runs():
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
     page = _page()
-    alone = text.split("\n=== session 20: the prefetch taken once a call (")[1].split(
-        "\n=== session 20: the prefetch taken once a call, through")[0]
-    parts = re.split(r"^=== (base|once), run \d ===$", alone, flags=re.M)
-    rows5 = {"base": [], "once": []}
-    for build, body in zip(parts[1::2], parts[2::2]):
-        rows5[build] += [float(r) for r in
-                         re.findall(r"^short_rows_5/typical/diagnose_bits/f32/Avx512 ([\d.]+) Mrows/s", body, re.M)]
+    rates = _alternating(text, "\n=== session 20: the prefetch taken once a call (",
+                         "\n=== session 20: the prefetch taken once a call, through", "base|once",
+                         r"^(short_rows_5/typical/diagnose_bits/f32/Avx512) ([\d.]+) Mrows/s")
+    rows5 = {b: rates[(b, "short_rows_5/typical/diagnose_bits/f32/Avx512")] for b in ("base", "once")}
     assert len(rows5["base"]) == len(rows5["once"]) == 5
     spans = {b: f"{min(v):.0f}-{max(v):.0f}" for b, v in rows5.items()}
     assert f"float32 rows of 5 with diagnostics went from {spans['base']} to {spans['once']} M rows/s" in page

@@ -554,24 +554,15 @@ fn calls_split_into_passes_match_portable() {
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn medium_avx2_counts_survive_passes() {
-    use crate::simd::medium_avx2::{diagnose_in_passes, vectors};
+    use crate::simd::medium_avx2::diagnose_in_passes;
     if !Isa::Avx2.supported() {
         return; // the level does not run here
     }
     fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, want: &[u32], tw: &Tally) {
         let k = m.cols();
         let (mut got, mut t) = (vec![0u32; m.rows()], Tally::zeros(k));
-        let v = vectors::<T>(k).expect("rows of 9-64 sensors");
-        macro_rules! arms {
-            ($($n:literal)*) => {
-                match v {
-                    // SAFETY: AVX2 and POPCNT are available (checked above), rows contiguous.
-                    $($n => unsafe { diagnose_in_passes::<T, $n, _>(m, b, &mut got, (&mut t, &mut crate::simd::checksum::NoSums), 1_000) },)*
-                    _ => unreachable!(),
-                }
-            };
-        }
-        arms!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
+        // SAFETY: AVX2 and POPCNT are available (checked above); 9-64 sensors, rows contiguous.
+        unsafe { diagnose_in_passes(m, b, &mut got, (&mut t, &mut crate::simd::checksum::NoSums), 1_000) };
         assert_eq!((&got[..], &t), (want, tw), "{k} sensors, {}", std::any::type_name::<T>());
     }
     for k in [9usize, 16, 17, 31, 33, 48, 50, 63, 64] {

@@ -54,18 +54,9 @@ fn diagnose_rows<T: Prediction, S: RowsRead>(
         // SAFETY: AVX2 and POPCNT are enabled; `takes` checked the row width
         // and that rows are contiguous.
         unsafe { ShortRows4::new(b).diagnose(m, out, t) };
-    } else if let Some(v) = medium_avx2::vectors::<T>(m.cols()).filter(|_| m.rows() == 0 || m.row_slice(0).is_some()) {
-        // SAFETY (each arm): AVX2 and POPCNT are enabled, `vectors` gave
-        // the arm's count, rows are contiguous.
-        macro_rules! arms {
-            ($($n:literal)*) => {
-                match v {
-                    $($n => unsafe { medium_avx2::diagnose::<T, $n, S>(m, b, out, (t, sums)) },)*
-                    _ => unreachable!("rows of at most 64 sensors: 16 vectors"),
-                }
-            };
-        }
-        arms!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+    } else if medium_avx2::vectors::<T>(m.cols()).is_some() && (m.rows() == 0 || m.row_slice(0).is_some()) {
+        // SAFETY: AVX2 and POPCNT are enabled; the kernel takes the width; rows are contiguous.
+        unsafe { medium_avx2::diagnose(m, b, out, (t, sums)) }
     } else {
         // SAFETY: AVX2 and POPCNT are enabled.
         unsafe { long_avx2::diagnose(m, b, out, (t, sums)) }

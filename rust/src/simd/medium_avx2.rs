@@ -36,31 +36,56 @@ pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
 }
 
 /// Writes the rejecting-sensor count of every row of `m` to `out` and adds
-/// the rows' diagnostics to `t`, for rows of `V` vectors (see [`vectors`]);
-/// tells `sums` each row it has read (the checkpoint checksum, if any).
+/// the rows' diagnostics to `t`; tells `sums` each row it has read (the
+/// checkpoint checksum, if any).
 ///
 /// # Safety
-/// AVX2 and POPCNT are available; `vectors::<T>(m.cols()) == Some(V)`; rows
+/// AVX2 and POPCNT are available; `vectors::<T>(m.cols())` is `Some`; rows
 /// are contiguous (`m.row_slice` is `Some`).
 #[inline]
 #[target_feature(enable = "avx2,popcnt")]
-pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
+pub unsafe fn diagnose<T: Prediction, S: RowsRead>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],
     (t, sums): (&mut Tally, &mut S),
 ) {
-    diagnose_in_passes::<T, V, S>(m, b, out, (t, sums), FLUSH_ROWS)
+    diagnose_in_passes(m, b, out, (t, sums), FLUSH_ROWS)
 }
 
 /// [`diagnose`] with the counters flushed every `pass_rows` rows (tests
-/// flush far more often than [`FLUSH_ROWS`]).
+/// flush far more often than [`FLUSH_ROWS`]), the row's vectors a constant.
 ///
 /// # Safety
 /// As [`diagnose`]; `pass_rows < 2^32`.
 #[inline]
 #[target_feature(enable = "avx2,popcnt")]
-pub(crate) unsafe fn diagnose_in_passes<T: Prediction, const V: usize, S: RowsRead>(
+pub(crate) unsafe fn diagnose_in_passes<T: Prediction, S: RowsRead>(
+    m: Matrix<'_, T>,
+    b: &SensorBounds,
+    out: &mut [u32],
+    (t, sums): (&mut Tally, &mut S),
+    pass_rows: usize,
+) {
+    macro_rules! arms {
+        ($($n:literal)*) => {
+            match vectors::<T>(m.cols()) {
+                // SAFETY (each arm): as this function's, `vectors` gave the arm's count.
+                $(Some($n) => unsafe { diagnose_rows::<T, $n, S>(m, b, out, (t, sums), pass_rows) },)*
+                v => panic!("rows of 9-64 sensors (2-16 vectors), got {} sensors ({v:?})", m.cols()),
+            }
+        };
+    }
+    arms!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+}
+
+/// [`diagnose_in_passes`] for rows of `V` vectors.
+///
+/// # Safety
+/// As [`diagnose_in_passes`]; `vectors::<T>(m.cols()) == Some(V)`.
+#[inline]
+#[target_feature(enable = "avx2,popcnt")]
+unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     m: Matrix<'_, T>,
     b: &SensorBounds,
     out: &mut [u32],

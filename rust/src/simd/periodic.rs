@@ -72,8 +72,9 @@ pub trait Vectors<T: Prediction> {
     /// AVX2's a constant (`Prefetch::FIXED`; a chosen one slowed the AVX2
     /// instance to 0.836-0.923 of its speed: `benches/results-short-rows.txt`,
     /// "session 19: where the time went"). Read again at every line, the
-    /// AVX-512 loop loaded the hint and jumped through a table for each
-    /// vector (section "session 20: the prefetch taken once a call").
+    /// AVX-512 loop loaded the hint from memory for each vector (section
+    /// "session 20: the prefetch taken once a call"); `Prefetch::line`
+    /// still matches on it at every line.
     #[inline(always)]
     fn prefetch() -> Prefetch {
         Prefetch::now()
