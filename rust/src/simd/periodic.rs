@@ -25,7 +25,10 @@
 //! - The string is `u64` where a period fits (every f64 period; f32 periods
 //!   of up to four vectors) and rows of 5 and 10 sensors shift their fields
 //!   by constants: `u128` words and run-time shifts took several
-//!   instructions each, per period.
+//!   instructions each, per period. With diagnostics, f32 rows of 5 and 10
+//!   (80-bit periods) keep their string as two words split at a row
+//!   boundary ([`Split60`]): the field arithmetic then has no carry between
+//!   words (`benches/results-short-rows.txt`, "session 21").
 //!
 //! Why the diagnostics are built this way (kernel alone, `cargo bench --
 //! short_rows`, sections "session 9: cargo bench" and "session 15: cargo
@@ -43,7 +46,7 @@
 //! period, the intervals' pattern and the verdict string are the same.
 
 use super::prefetch::Prefetch;
-use super::bit_string::{spread, BitCounts, BitTally, Bits};
+use super::bit_string::{row_fields, spread, BitCounts, BitTally, Bits, Split60};
 pub use super::checksum::{NoSums, SumVectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, SensorBounds, Tally};
@@ -317,10 +320,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     /// rejecting-sensor counts into `counts` (one per row).
     ///
     /// Without `COUNTS` there is no per-row work: "rejected by exactly one
-    /// sensor" is field arithmetic on the period's bit string. Per field
-    /// `f`: `f & (f - 1)` is non-zero iff `f` has two bits or more; the `- 1`
-    /// is done on the whole string by subtracting the lowest bit of the
-    /// non-zero fields only (a zero field would borrow from the next).
+    /// sensor" is field arithmetic on the period's bit string ([`row_fields`]).
     ///
     /// # Safety
     /// As [`Self::screen_any`]; `t` has `k` sensors.
@@ -370,6 +370,8 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     ) {
         if P * T::W512 <= 64 {
             self.diagnose_pb::<u64, P, K, COUNTS, S>(data, periods, counts, sink, t)
+        } else if K != 0 && 60 % K == 0 && P * T::W512 - 60 <= 64 {
+            self.diagnose_pb::<Split60, P, K, COUNTS, S>(data, periods, counts, sink, t)
         } else {
             self.diagnose_pb::<u128, P, K, COUNTS, S>(data, periods, counts, sink, t)
         }
@@ -390,7 +392,6 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         assert!(P == self.period.vectors && P * w <= B::BITS && k == self.k && rows == self.period.rows);
         assert!(data.len() >= periods * rows * k && t.per_sensor.len() == k);
         assert!(!COUNTS || counts.len() >= periods * rows);
-        let field = (1u64 << k) - 1; // k < 64 (`period`)
         let all = u32::MAX >> (32 - rows);
         // Per bit of the string, the periods that had it set: rejections,
         // and rejections of rows rejected by that sensor only.
@@ -399,6 +400,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         let mut pending = 0u32;
         let mut invalid = 0u64;
         let pf = L::prefetch();
+        let patterns = (B::pattern(self.period.low_bits), B::pattern(self.period.top_bits));
         for q in 0..periods {
             let p = data.as_ptr().add(q * rows * k);
             let mut rejecting = [0u32; P];
@@ -424,36 +426,31 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
                 sum = L::add(sum, L::load(p.add(v * w)));
             }
             let suspect = L::nan(sum) != 0;
-            let (nonzero, rejected) = self.any_per_row(bits);
+            let (_, rejected, single) = row_fields(bits, patterns, k);
             sink.push((!rejected & all) as u64, rows as u32);
-            // Per field f & (f - 1): non-zero iff two bits or more.
-            let (several, _) = self.any_per_row(bits & bits.sub(nonzero >> (k - 1)));
-            let one = nonzero & !several;
-            // Fields with one bit, as whole fields: their bit is the sensor.
-            let single = bits & (one.sub(one >> (k - 1)) | one);
             if COUNTS {
                 for (r, c) in counts[q * rows..(q + 1) * rows].iter_mut().enumerate() {
-                    *c = ((bits >> (r * k)).low64() & field).count_ones();
+                    *c = bits.field(r, k).count_ones();
                 }
             }
             if suspect {
                 // Rare: a NaN row is never a candidate, counted once.
                 let (_, nan) = self.period_bits::<B, P, true, NoSums>(p, (&mut NoSums, Prefetch::OFF));
-                invalid += (0..rows).filter(|r| (nan >> (r * k)).low64() & field != 0).count() as u64;
+                invalid += (0..rows).filter(|&r| nan.field(r, k) != 0).count() as u64;
             }
             outside = outside.add(bits, P * w);
             only = only.add(single, P * w);
             pending += 1;
             if pending == L::Counts::MAX {
-                outside = outside.flush(P * w, &mut outside_totals);
-                only = only.flush(P * w, &mut only_totals);
+                outside = outside.flush(&mut outside_totals);
+                only = only.flush(&mut only_totals);
                 pending = 0;
             }
         }
-        outside.flush(P * w, &mut outside_totals);
-        only.flush(P * w, &mut only_totals);
-        spread(&outside_totals, P * w, k, &mut t.per_sensor);
-        spread(&only_totals, P * w, k, &mut t.only_by);
+        outside.flush(&mut outside_totals);
+        only.flush(&mut only_totals);
+        spread(&outside_totals, (P * w, B::HI_BASE), k, &mut t.per_sensor);
+        spread(&only_totals, (P * w, B::HI_BASE), k, &mut t.only_by);
         t.invalid += invalid;
     }
 }

@@ -81,7 +81,7 @@ impl BitCounts for ByteTally256 {
         for (c, b) in bytes.iter_mut().enumerate() {
             // `n` is a constant where this is inlined: unused pieces cost nothing.
             if 32 * c < n {
-                *b = _mm256_sub_epi8(*b, bit_bytes((x >> (32 * c)).low64() as u32));
+                *b = _mm256_sub_epi8(*b, bit_bytes((x.word(c / 2) >> (32 * (c % 2))) as u32));
             }
         }
         ByteTally256 { bytes }
