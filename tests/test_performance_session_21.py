@@ -24,12 +24,15 @@ def _section(title: str) -> str:
 
 def _medians(title: str) -> dict[tuple[str, ...], list[int]]:
     """Per benchmark (rows, case, dtype, level), the medians of each build."""
+    lines = _section(title).splitlines()
+    header = next(line.split() for line in lines if line.startswith("bench "))
+    builds = len(header) - 1 - (header[-2:] == ["every", "round"]) * 2
     found = {}
-    for line in _section(title).splitlines():
-        m = re.match(r"short_rows_(\d+)/(\w+)/diagnose_bits/(f\d\d)/(\w+)$", line.split()[0] if line else "")
+    for line in lines:
+        cells = line.split()
+        m = re.match(r"short_rows_(\d+)/(\w+)/diagnose_bits/(f\d\d)/(\w+)$", cells[0] if cells else "")
         if m:
-            # The builds' medians, then every round's values (joined by "/").
-            found[m.groups()] = [int(v) for v in line.split()[1:] if "/" not in v]
+            found[m.groups()] = [int(v) for v in cells[1:1 + builds]]
     return found
 
 
@@ -69,7 +72,9 @@ def test_the_split_string_alone_is_the_recorded_run():
 def test_the_split_string_through_falsify_is_the_recorded_run():
     section = _section("session 21: the split string through falsify")
     # The two 41-round runs (AVX-512, then AVX2) follow the 15-round one.
-    long_runs = section.split("median over 12 cases")[1]
+    assert section.count("median over 12 cases") == 1 and section.count("median over 4 cases") == 2
+    short_run, long_runs = section.split("median over 12 cases")
+    summary = re.search(r"^: (\d\.\d{3}) \(range (\d\.\d{3})-(\d\.\d{3})\)$", long_runs, re.M)
     ratios = re.findall(r"^\s+(5|10) f32\s+(worst|typical) diag .* old/new paired (\d\.\d{3})$", long_runs, re.M)
     assert len(ratios) == 8
     spans = {}
@@ -79,3 +84,19 @@ def test_the_split_string_through_falsify_is_the_recorded_run():
     page = _page()
     assert (f"the split string ran {spans['typical']} times as fast on typical rows of 5 and 10 and "
             f"{spans['worst']} on the worst case, at both levels") in page
+    assert (f"a first run of 15 rounds, with controls, gave a median of {summary[1]} over 12 cases "
+            f"({summary[2]}-{summary[3]})") in page
+
+
+def test_the_nan_experiment_not_kept_is_the_recorded_run():
+    # Its two runs are headed "=== run N ===", which `_section` would cut at.
+    text = (ROOT / "benches" / "results-short-rows.txt").read_text()
+    section = text.split("=== session 21: NaN looked for once per flush, not kept")[1].split("\n=== session")[0]
+    spans = []
+    for run in re.split(r"^=== run \d ===$", section, flags=re.M)[1:]:
+        paired = [float(line.split()[3]) for line in run.splitlines() if line.startswith("short_rows_")]
+        assert len(paired) == 16
+        spans.append(f"{min(paired):.3f}-{max(paired):.3f}")
+    page = _page()
+    assert (f"ran {spans[0]} and, with each period summed apart first, {spans[1]} times as fast alone "
+            "(the paired medians of 16 cases") in page

@@ -410,9 +410,13 @@ fn periodic_byte_counts_survive_flushes() {
         let rows = 16_000 - 16_000 % (16 * k) + 7;
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let mut state = 0x2545_F491_4F6C_DD1Du64;
+        // Sensor 1 also holds NaN, and infinities of both signs in rows far apart.
         let data: Vec<f64> = (0..rows * k)
-            .map(|i| match i % k {
-                0 => 2.0,
+            .map(|i| match (i % k, (i / k) % 997, (i / k) % 1499) {
+                (0, _, _) => 2.0,
+                (1, 13, _) => f64::NAN,
+                (1, _, 7) => f64::INFINITY,
+                (1, _, 700) => f64::NEG_INFINITY,
                 _ => (2.1 * crate::testing::uniform(&mut state) - 1.05) * if (i / k) % 3 == 0 { 1.0 } else { 0.5 },
             })
             .collect();
@@ -423,9 +427,41 @@ fn periodic_byte_counts_survive_flushes() {
         diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
         assert_eq!(tw.per_sensor[0], rows as u64);
         assert!(tw.only_by[0] > 2 * rows as u64 / 3 - 1 && tw.only_by[0] < rows as u64);
+        assert_eq!(tw.invalid, (0..rows).filter(|r| r % 997 == 13).count() as u64);
         for isa in Isa::available() {
             check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 byte counts, {k} sensors"));
             check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 byte counts, {k} sensors"));
+        }
+    }
+}
+
+/// NaN rows are counted once whatever the period they fall in, across the
+/// periodic kernel's flushes of its byte counts (every 255 periods with a
+/// rejected row): every other row has a NaN, so every period of two rows or
+/// more holds one, and infinities of both signs in rows far apart.
+#[test]
+fn periodic_nan_rows_are_counted_once_across_flushes() {
+    for k in [3usize, 5, 10, 12, 20] {
+        let rows = 600 * 16 + 5;
+        let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let data: Vec<f64> = (0..rows * k)
+            .map(|i| match ((i / k) % 2, i % k == (i / k) % k, (i / k) % 301) {
+                (0, true, _) => f64::NAN,
+                (1, true, 17) => f64::INFINITY,
+                (1, true, 150) => f64::NEG_INFINITY,
+                _ => 2.4 * crate::testing::uniform(&mut state) - 1.2,
+            })
+            .collect();
+        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+        let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
+        let plan = ScreenPlan::new(&b, &vec![0; k]);
+        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        assert_eq!(tw.invalid, rows.div_ceil(2) as u64);
+        for isa in Isa::available() {
+            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 NaN rows, {k} sensors"));
+            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 NaN rows, {k} sensors"));
         }
     }
 }

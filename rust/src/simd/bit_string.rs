@@ -8,6 +8,9 @@ use std::arch::x86_64::*;
 /// periods of up to four vectors), else [`Split60`] where the rows allow
 /// (the diagnostics of rows of 5 and 10) or `u128`, whose shifts, adds and
 /// two `pext` cost several instructions each in the per-period work.
+///
+/// The kernels use the arithmetic only within a row's field (see
+/// [`row_fields`]), which is what lets a `Split60` do it per word.
 pub trait Bits:
     Copy
     + PartialEq
@@ -23,11 +26,11 @@ pub trait Bits:
     fn mask(m: u32) -> Self;
     /// The low `BITS` bits of a [`crate::kernel::Period`] field pattern.
     fn pattern(x: u128) -> Self;
-    /// Sum modulo 2^BITS.
+    /// Sum, wrapping (a `Split60` per word: no carry leaves a field).
     fn add(self, o: Self) -> Self;
-    /// Difference modulo 2^BITS.
+    /// Difference, wrapping (a `Split60` per word: no borrow leaves a field).
     fn sub(self, o: Self) -> Self;
-    /// The low 64 bits.
+    /// The low 64 bits (a `Split60`: its first word).
     fn low64(self) -> u64;
     /// The bits of `self` at the set bits of `at`, packed low (`pext`).
     ///
@@ -114,6 +117,13 @@ impl Bits for u128 {
     }
 }
 
+/// The top bit of every field of `bits` that has a bit set (the carry
+/// trick; field patterns `(low, top)` of [`crate::kernel::Period`]).
+#[inline(always)]
+pub fn any_field<B: Bits>(bits: B, (low, top): (B, B)) -> B {
+    ((bits & low).add(low) | bits) & top
+}
+
 /// Per-row verdicts of a period's string `bits` (rows of `k` sensors, field
 /// patterns `(low, top)` of [`crate::kernel::Period`]): the top bits of the
 /// non-zero fields, their rows as bits (bit `r`: row `r` rejected, `pext`),
@@ -136,123 +146,15 @@ impl Bits for u128 {
 /// BMI2 is available.
 #[inline(always)]
 pub unsafe fn row_fields<B: Bits>(bits: B, (low, top): (B, B), k: usize) -> (B, u32, B) {
-    let any = |f: B| ((f & low).add(low) | f) & top;
-    let nonzero = any(bits);
-    let several = any(bits & bits.sub(nonzero >> (k - 1)));
+    let nonzero = any_field(bits, (low, top));
+    let several = any_field(bits & bits.sub(nonzero >> (k - 1)), (low, top));
     let one = nonzero & !several;
     (nonzero, nonzero.gather(top), bits & (one.sub(one >> (k - 1)) | one))
 }
 
-/// A string of up to 124 bits held as two words split at bit 60, a row
-/// boundary of rows of 5, 6, 10, 12, 15, 20 and 30 sensors: every row's
-/// field lies in one word, so the field arithmetic (the carry trick, the
-/// lowest bit's subtraction, shifts by less than a field) runs on the two
-/// words apart, with no carry, borrow or double shift between them as a
-/// `u128` has. Shifts act on each word alone: they are only used within
-/// a field.
-#[derive(Clone, Copy, PartialEq)]
-pub struct Split60 {
-    lo: u64,
-    hi: u64,
-}
-
-const SPLIT: u32 = 60;
-
-impl Split60 {
-    #[inline(always)]
-    fn of(x: u128) -> Self {
-        Split60 { lo: x as u64 & ((1 << SPLIT) - 1), hi: (x >> SPLIT) as u64 }
-    }
-}
-
-macro_rules! split_op {
-    ($tr:ident, $f:ident, $op:tt) => {
-        impl std::ops::$tr for Split60 {
-            type Output = Self;
-            #[inline(always)]
-            fn $f(self, o: Self) -> Self {
-                Split60 { lo: self.lo $op o.lo, hi: self.hi $op o.hi }
-            }
-        }
-    };
-}
-split_op!(BitOr, bitor, |);
-split_op!(BitAnd, bitand, &);
-
-impl std::ops::Not for Split60 {
-    type Output = Self;
-    #[inline(always)]
-    fn not(self) -> Self {
-        Split60 { lo: !self.lo, hi: !self.hi }
-    }
-}
-
-impl std::ops::Shl<usize> for Split60 {
-    type Output = Self;
-    #[inline(always)]
-    fn shl(self, n: usize) -> Self {
-        Split60 { lo: self.lo << n, hi: self.hi << n }
-    }
-}
-
-impl std::ops::Shr<usize> for Split60 {
-    type Output = Self;
-    #[inline(always)]
-    fn shr(self, n: usize) -> Self {
-        Split60 { lo: self.lo >> n, hi: self.hi >> n }
-    }
-}
-
-impl Bits for Split60 {
-    const BITS: usize = 124;
-    const ZERO: Self = Split60 { lo: 0, hi: 0 };
-    const HI_BASE: usize = SPLIT as usize;
-    #[inline(always)]
-    fn mask(m: u32) -> Self {
-        Split60 { lo: m.into(), hi: 0 }
-    }
-    #[inline(always)]
-    fn pattern(x: u128) -> Self {
-        Self::of(x)
-    }
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        Split60 { lo: self.lo.wrapping_add(o.lo), hi: self.hi.wrapping_add(o.hi) }
-    }
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        Split60 { lo: self.lo.wrapping_sub(o.lo), hi: self.hi.wrapping_sub(o.hi) }
-    }
-    #[inline(always)]
-    fn low64(self) -> u64 {
-        self.lo
-    }
-    #[inline(always)]
-    unsafe fn gather(self, at: Self) -> u32 {
-        _pext_u64(self.lo, at.lo) as u32 | (_pext_u64(self.hi, at.hi) as u32).wrapping_shl(at.lo.count_ones())
-    }
-    #[inline(always)]
-    fn word(self, c: usize) -> u64 {
-        if c == 0 {
-            self.lo
-        } else {
-            self.hi
-        }
-    }
-    #[inline(always)]
-    fn field(self, r: usize, k: usize) -> u64 {
-        let at = r * k;
-        let w = if at < SPLIT as usize { self.lo >> at } else { self.hi >> (at - SPLIT as usize) };
-        w & ((1u64 << k) - 1)
-    }
-    #[inline(always)]
-    fn string(masks: &[u32], w: usize) -> Self {
-        Self::of(<u128 as Bits>::string(masks, w))
-    }
-}
-
-/// How many periods had each bit of their string set, one byte lane a bit
-/// (bit `i` in byte `i`), added to `u64` totals before a byte can overflow.
+/// How many periods had each position of their string set, one byte lane a
+/// position (word 0's bit `i` in byte `i`, word 1's in byte `64 + i`, see
+/// [`Bits::word`]), added to `u64` totals before a byte can overflow.
 pub trait BitCounts: Copy {
     /// Periods a byte counts before [`Self::flush`].
     const MAX: u32 = u8::MAX as u32;
@@ -261,13 +163,14 @@ pub trait BitCounts: Copy {
     /// The level's features are enabled.
     unsafe fn new() -> Self;
 
-    /// Counts the set bits of `x`, of which only the first `n` can be set.
+    /// Counts the set bits of `x`, a string of `n` positions (only the
+    /// positions below `n` can be set).
     ///
     /// # Safety
     /// The level's features are enabled.
     unsafe fn add<B: Bits>(self, x: B, n: usize) -> Self;
 
-    /// The bytes, bit `i`'s count in byte `i`.
+    /// The bytes, in the order of [`BitCounts`].
     ///
     /// # Safety
     /// The level's features are enabled.
@@ -308,7 +211,7 @@ impl BitCounts for BitTally {
     unsafe fn add<B: Bits>(self, x: B, n: usize) -> Self {
         let one = _mm512_set1_epi8(1);
         let lo = _mm512_mask_add_epi8(self.lo, x.word(0), self.lo, one);
-        let hi = if n > 64 {
+        let hi = if n > B::HI_BASE {
             _mm512_mask_add_epi8(self.hi, x.word(1), self.hi, one)
         } else {
             self.hi
@@ -334,62 +237,6 @@ pub fn spread(totals: &[u64; 128], (n, hi_base): (usize, usize), k: usize, out: 
     for (counts, base) in words {
         for (i, &c) in counts.iter().enumerate() {
             out[(base + i) % k] += c;
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::bounds::Period;
-
-    /// The row verdicts and one-bit fields of random strings, as `u128` and
-    /// as [`Split60`], against each row's field read one at a time: rows of
-    /// 5, 10 and 20 float32 sensors (80-bit periods), fields drawn to be
-    /// empty, single or several bits often.
-    #[test]
-    fn split_strings_match_rows_read_one_by_one() {
-        if !std::arch::is_x86_feature_detected!("bmi2") {
-            return; // the periodic kernels that use these need BMI2 too
-        }
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
-        for k in [5usize, 10, 20] {
-            let p = Period::new(k, 16, true).expect("a period of float32 rows");
-            let (rows, n) = (p.rows, p.vectors * 16);
-            assert_eq!(n, 80);
-            for _ in 0..20_000 {
-                let mut x = 0u128;
-                for r in 0..rows {
-                    let f = match next() % 4 {
-                        0 => 0,
-                        1 => 1u64 << (next() % k as u64),
-                        _ => next() & next() & ((1u64 << k) - 1),
-                    };
-                    x |= (f as u128) << (r * k);
-                }
-                // SAFETY: BMI2 is available (checked).
-                let (wide, split) = unsafe {
-                    (
-                        row_fields(x, (p.low_bits, p.top_bits), k),
-                        row_fields(Split60::of(x), (Split60::of(p.low_bits), Split60::of(p.top_bits)), k),
-                    )
-                };
-                assert_eq!(wide.1, split.1, "rejected rows of {x:#x}, rows of {k}");
-                for r in 0..rows {
-                    let f = x.field(r, k);
-                    assert_eq!(wide.1 >> r & 1, (f != 0) as u32, "row {r} of {x:#x}");
-                    let single = if f.count_ones() == 1 { f } else { 0 };
-                    assert_eq!((wide.2.field(r, k), split.2.field(r, k)), (single, single), "row {r} of {x:#x}");
-                }
-                let words = |s: Split60| [s.word(0), s.word(1)];
-                assert_eq!(words(split.2), words(Split60::of(wide.2)));
-            }
         }
     }
 }

@@ -32,6 +32,7 @@ pub mod prefetch;
 pub mod row_batches;
 pub mod short;
 pub mod short_avx2;
+mod split_string;
 
 use std::arch::x86_64::*;
 

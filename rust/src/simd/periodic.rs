@@ -46,7 +46,8 @@
 //! period, the intervals' pattern and the verdict string are the same.
 
 use super::prefetch::Prefetch;
-use super::bit_string::{row_fields, spread, BitCounts, BitTally, Bits, Split60};
+use super::bit_string::{any_field, row_fields, spread, BitCounts, BitTally, Bits};
+use super::split_string::Split60;
 pub use super::checksum::{NoSums, SumVectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, SensorBounds, Tally};
@@ -240,7 +241,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
     #[inline(always)]
     unsafe fn any_per_row<B: Bits>(&self, bits: B) -> (B, u32) {
         let (low, top) = (B::pattern(self.period.low_bits), B::pattern(self.period.top_bits));
-        let tops = ((bits & low).add(low) | bits) & top;
+        let tops = any_field(bits, (low, top));
         (tops, tops.gather(top))
     }
 

@@ -79,8 +79,11 @@ impl BitCounts for ByteTally256 {
     unsafe fn add<B: Bits>(self, x: B, n: usize) -> Self {
         let mut bytes = self.bytes;
         for (c, b) in bytes.iter_mut().enumerate() {
-            // `n` is a constant where this is inlined: unused pieces cost nothing.
-            if 32 * c < n {
+            // Piece `c` is word `c / 2`'s bits from 32 (c % 2), at string
+            // position `HI_BASE` onwards for word 1. `n` is a constant where
+            // this is inlined: unused pieces cost nothing.
+            let first = if c < 2 { 32 * c } else { B::HI_BASE + 32 * (c - 2) };
+            if first < n {
                 *b = _mm256_sub_epi8(*b, bit_bytes((x.word(c / 2) >> (32 * (c % 2))) as u32));
             }
         }

@@ -1,0 +1,172 @@
+//! A period's verdict string split at a row boundary, for the periodic
+//! kernel's diagnostics of float32 rows of 5 and 10 sensors (80-bit
+//! periods): see [`Split60`].
+
+use super::bit_string::Bits;
+use std::arch::x86_64::*;
+
+/// A string of up to 124 bits held as two words split at bit 60, a row
+/// boundary for rows of any `k` dividing 60: every row's field lies in one
+/// word, so the field arithmetic ([`super::bit_string::row_fields`]: the carry trick, the
+/// lowest bit's subtraction, shifts by less than a field) runs on the two
+/// words apart, with no carry, borrow or double shift between them as a
+/// `u128` has. Shifts act on each word alone, which is right within a
+/// field only: the string itself is built as a `u128` and split
+/// ([`Bits::string`] below).
+#[derive(Clone, Copy, PartialEq)]
+pub struct Split60 {
+    lo: u64,
+    hi: u64,
+}
+
+const SPLIT: u32 = 60;
+
+impl Split60 {
+    #[inline(always)]
+    fn of(x: u128) -> Self {
+        Split60 { lo: x as u64 & ((1 << SPLIT) - 1), hi: (x >> SPLIT) as u64 }
+    }
+}
+
+macro_rules! split_op {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl std::ops::$tr for Split60 {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                Split60 { lo: self.lo $op o.lo, hi: self.hi $op o.hi }
+            }
+        }
+    };
+}
+split_op!(BitOr, bitor, |);
+split_op!(BitAnd, bitand, &);
+
+impl std::ops::Not for Split60 {
+    type Output = Self;
+    #[inline(always)]
+    fn not(self) -> Self {
+        Split60 { lo: !self.lo, hi: !self.hi }
+    }
+}
+
+impl std::ops::Shl<usize> for Split60 {
+    type Output = Self;
+    #[inline(always)]
+    fn shl(self, n: usize) -> Self {
+        Split60 { lo: self.lo << n, hi: self.hi << n }
+    }
+}
+
+impl std::ops::Shr<usize> for Split60 {
+    type Output = Self;
+    #[inline(always)]
+    fn shr(self, n: usize) -> Self {
+        Split60 { lo: self.lo >> n, hi: self.hi >> n }
+    }
+}
+
+impl Bits for Split60 {
+    const BITS: usize = 124;
+    const ZERO: Self = Split60 { lo: 0, hi: 0 };
+    const HI_BASE: usize = SPLIT as usize;
+    #[inline(always)]
+    fn mask(m: u32) -> Self {
+        Split60 { lo: m.into(), hi: 0 }
+    }
+    #[inline(always)]
+    fn pattern(x: u128) -> Self {
+        Self::of(x)
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Split60 { lo: self.lo.wrapping_add(o.lo), hi: self.hi.wrapping_add(o.hi) }
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Split60 { lo: self.lo.wrapping_sub(o.lo), hi: self.hi.wrapping_sub(o.hi) }
+    }
+    #[inline(always)]
+    fn low64(self) -> u64 {
+        self.lo
+    }
+    #[inline(always)]
+    unsafe fn gather(self, at: Self) -> u32 {
+        _pext_u64(self.lo, at.lo) as u32 | (_pext_u64(self.hi, at.hi) as u32).wrapping_shl(at.lo.count_ones())
+    }
+    #[inline(always)]
+    fn word(self, c: usize) -> u64 {
+        if c == 0 {
+            self.lo
+        } else {
+            self.hi
+        }
+    }
+    #[inline(always)]
+    fn field(self, r: usize, k: usize) -> u64 {
+        let at = r * k;
+        let w = if at < SPLIT as usize { self.lo >> at } else { self.hi >> (at - SPLIT as usize) };
+        w & ((1u64 << k) - 1)
+    }
+    #[inline(always)]
+    fn string(masks: &[u32], w: usize) -> Self {
+        Self::of(<u128 as Bits>::string(masks, w))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simd::bit_string::row_fields;
+    use crate::bounds::Period;
+
+    /// The row verdicts and one-bit fields of random strings, as `u128` and
+    /// as [`Split60`], against each row's field read one at a time: rows of
+    /// 5, 10 and 20 float32 sensors (80-bit periods), fields drawn to be
+    /// empty, single or several bits often.
+    #[test]
+    fn split_strings_match_rows_read_one_by_one() {
+        if !std::arch::is_x86_feature_detected!("bmi2") {
+            return; // the periodic kernels that use these need BMI2 too
+        }
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for k in [5usize, 10, 20] {
+            let p = Period::new(k, 16, true).expect("a period of float32 rows");
+            let (rows, n) = (p.rows, p.vectors * 16);
+            assert_eq!(n, 80);
+            for _ in 0..20_000 {
+                let mut x = 0u128;
+                for r in 0..rows {
+                    let f = match next() % 4 {
+                        0 => 0,
+                        1 => 1u64 << (next() % k as u64),
+                        _ => next() & next() & ((1u64 << k) - 1),
+                    };
+                    x |= (f as u128) << (r * k);
+                }
+                // SAFETY: BMI2 is available (checked).
+                let (wide, split) = unsafe {
+                    (
+                        row_fields(x, (p.low_bits, p.top_bits), k),
+                        row_fields(Split60::of(x), (Split60::of(p.low_bits), Split60::of(p.top_bits)), k),
+                    )
+                };
+                assert_eq!(wide.1, split.1, "rejected rows of {x:#x}, rows of {k}");
+                for r in 0..rows {
+                    let f = x.field(r, k);
+                    assert_eq!(wide.1 >> r & 1, (f != 0) as u32, "row {r} of {x:#x}");
+                    let single = if f.count_ones() == 1 { f } else { 0 };
+                    assert_eq!((wide.2.field(r, k), split.2.field(r, k)), (single, single), "row {r} of {x:#x}");
+                }
+                let words = |s: Split60| [s.word(0), s.word(1)];
+                assert_eq!(words(split.2), words(Split60::of(wide.2)));
+            }
+        }
+    }
+}
