@@ -420,19 +420,26 @@ fn periodic_byte_counts_survive_flushes() {
                 _ => (2.1 * crate::testing::uniform(&mut state) - 1.05) * if (i / k) % 3 == 0 { 1.0 } else { 0.5 },
             })
             .collect();
-        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
-        let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
-        let plan = ScreenPlan::new(&b, &vec![0; k]);
-        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
-        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        let tw = every_level_as_portable(&data, (rows, k), &b, &format!("byte counts, {k} sensors"));
         assert_eq!(tw.per_sensor[0], rows as u64);
         assert!(tw.only_by[0] > 2 * rows as u64 / 3 - 1 && tw.only_by[0] < rows as u64);
         assert_eq!(tw.invalid, (0..rows).filter(|r| r % 997 == 13).count() as u64);
-        for isa in Isa::available() {
-            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 byte counts, {k} sensors"));
-            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 byte counts, {k} sensors"));
-        }
     }
+}
+
+/// Rows `data` (`rows` x `k`, and the same as f32) at every level give the
+/// portable kernel's f64 verdicts, counts and tally, which it returns.
+fn every_level_as_portable(data: &[f64], (rows, k): (usize, usize), b: &SensorBounds, what: &str) -> Tally {
+    let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+    let (m, m32) = (Matrix::row_major(data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
+    let plan = ScreenPlan::new(b, &vec![0; k]);
+    let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+    diagnose_with(Isa::Portable, m, b, &mut want, &mut tw);
+    for isa in Isa::available() {
+        check_bits(isa, m, b, &plan, &want, &tw, &format!("f64 {what}"));
+        check_bits(isa, m32, b, &plan, &want, &tw, &format!("f32 {what}"));
+    }
+    tw
 }
 
 /// NaN rows are counted once whatever the period they fall in, across the
@@ -453,16 +460,8 @@ fn periodic_nan_rows_are_counted_once_across_flushes() {
                 _ => 2.4 * crate::testing::uniform(&mut state) - 1.2,
             })
             .collect();
-        let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
-        let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
-        let plan = ScreenPlan::new(&b, &vec![0; k]);
-        let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
-        diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+        let tw = every_level_as_portable(&data, (rows, k), &b, &format!("NaN rows, {k} sensors"));
         assert_eq!(tw.invalid, rows.div_ceil(2) as u64);
-        for isa in Isa::available() {
-            check_bits(isa, m, &b, &plan, &want, &tw, &format!("f64 NaN rows, {k} sensors"));
-            check_bits(isa, m32, &b, &plan, &want, &tw, &format!("f32 NaN rows, {k} sensors"));
-        }
     }
 }
 
