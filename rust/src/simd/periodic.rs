@@ -39,9 +39,9 @@
 //! a `u128` string where a `u64` holds it, field shifts by a run-time
 //! count, and the candidate sink's state stored back after every period.
 //! Tried in session 22 and not kept: the field arithmetic of eight periods'
-//! strings at once in vector lanes (0.87-0.98 of this speed on typical
-//! float32 rows at AVX-512: recording the periods afterwards spilled the
-//! strings and the sink; "session 22" in `docs/performance.md`).
+//! strings at once in vector lanes (0.72-0.98 of this speed on typical
+//! float32 rows at AVX-512: recording the periods afterwards went through
+//! the stack; "session 22" in `docs/performance.md`).
 //!
 //! Rows after the last whole period (fewer than `R`) go to the caller.
 //!
