@@ -123,3 +123,23 @@ def test_the_kernel_comment_quotes_the_recorded_runs():
     assert len(ratios) == 6
     doc = " ".join((ROOT / "rust" / "src" / "simd" / "periodic.rs").read_text().replace("//!", "").split())
     assert f"strings at once in vector lanes ({min(ratios):.2f}-{max(ratios):.2f} of this speed on typical" in doc
+
+
+def test_the_checksum_figures_match_the_recorded_run():
+    text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
+    sections = [s for s in text.split("\n=== ") if "session 22 code (03957a4)" in s.split("\n", 1)[0]]
+    assert len(sections) == 1
+    section = sections[0]
+    mem = re.search(r"CPU on/off of the best times: median ([\d.]+), largest ([\d.]+)", section).groups()
+    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
+                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    assert (f"Session 22 ran it again on session 21's kernels (section \"session 22 code\"): in memory a median of "
+            f"{mem[0]} (largest {mem[1]}), from the page cache {warm[0]} (paired: {warm[1]}), from the disk {cold[0]} "
+            f"(paired: {cold[1]}).") in _page()
+
+    def control(title):
+        part = [s for s in text.split("\n=== ") if title in s.split("\n", 1)[0]][0]
+        return re.search(r"^float64\s+10 typical screen\s+[\d.]+\s+[\d.]+\s+([\d.]+)", part, re.M)[1]
+
+    then, now = control("session 20 final code (e5e0529)"), control("session 22 code (03957a4)")
+    assert f"(float64 rows of 10, typical, screened: CPU on/off {then} then, {now} now)" in _page()
