@@ -7,7 +7,7 @@ import re
 import statistics
 from pathlib import Path
 
-from test_performance_tables import ROW, _cases_table, _level_tables, _target
+from test_performance_tables import ROW, _cases_table, _floor_summary, _target
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -178,14 +178,7 @@ def test_session_20_final_floor_table_matches_the_recorded_runs():
     text = (ROOT / "benches" / "results-short-rows.txt").read_text()
     page_text = (ROOT / "docs" / "performance.md").read_text()
     page = " ".join(page_text.split())
-    (_, floors512, _), (_, floors2, _), medians = _level_tables(text, page_text, "20")
-    missed = [k for k, m in medians.items() if m < _target(k[1], k[3], k[4])]
-    by_level = {lvl: [m for k, m in medians.items() if k[0] == lvl] for lvl in ("avx512", "avx2")}
-    floors = [f for run in (floors512, floors2) for f in run[::2]]  # one floor a case (two methods a case)
-    assert (f"By the median, AVX-512 reads {min(by_level['avx512']):.2f}-{max(by_level['avx512']):.2f} of the floor "
-            f"and AVX2 {min(by_level['avx2']):.2f}-{max(by_level['avx2']):.2f}; {len(missed)} of the 80 medians miss "
-            f"the issue's targets. The floor read the 800 MB in a median of {statistics.median(floors):.1f} ms "
-            f"({min(floors):.1f}-{max(floors):.1f})") in page
+    assert _floor_summary(text, page_text, "20") in page
     after = text.split("\n=== session 20: after the final runs")[1].split("\n=== ")[0]
     rows = re.findall(r"floor\s+([\d.]+) ms \| old/floor [\d.]+ \(paired [\d.]+\) \| new/floor ([\d.]+) .*"
                       r"old/new paired ([\d.]+)", after)

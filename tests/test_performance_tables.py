@@ -658,6 +658,20 @@ def _level_tables(text: str, page_text: str, session: str):
     return levels[0], levels[1], medians
 
 
+def _floor_summary(text: str, page_text: str, session: str) -> str:
+    """The page's summary of session `session`'s final floor tables (both
+    levels, three runs each; every row checked by `_level_tables`): the
+    medians' spans per level, the misses and the floor's times."""
+    (_, floors512, _), (_, floors2, _), medians = _level_tables(text, page_text, session)
+    missed = [k for k, m in medians.items() if m < _target(k[1], k[3], k[4])]
+    by_level = {lvl: [m for k, m in medians.items() if k[0] == lvl] for lvl in ("avx512", "avx2")}
+    floors = [f for run in (floors512, floors2) for f in run[::2]]  # one floor a case (two methods a case)
+    return (f"By the median, AVX-512 reads {min(by_level['avx512']):.2f}-{max(by_level['avx512']):.2f} of the floor "
+            f"and AVX2 {min(by_level['avx2']):.2f}-{max(by_level['avx2']):.2f}; {len(missed)} of the 80 medians miss "
+            f"the issue's targets. The floor read the 800 MB in a median of {statistics.median(floors):.1f} ms "
+            f"({min(floors):.1f}-{max(floors):.1f})")
+
+
 def test_session_18_floor_tables_match_the_recorded_runs():
     """The CPU family 25 table (three runs at each level), its summary, and the
     figures of what the gap is not, from the recorded runs."""
