@@ -62,6 +62,14 @@ def test_threads_sets_the_rust_pool(tmp_path):
         edmf_rs.set_num_threads(before)
 
 
+@pytest.mark.parametrize("threads", ["100000", "99999999999999999999"])
+def test_too_many_threads_are_refused_naming_the_option_and_value(tmp_path, capsys, threads):
+    # It said "n: ..., got 100000" (an argument the user never gave) and "got 9223372036854775807".
+    assert cli.main(["run", str(cantilever(tmp_path)), "--dry-run", "--threads", threads]) == 2
+    err = capsys.readouterr().err
+    assert "--threads: expected a number of threads from 1 to " in err and err.rstrip().endswith(f"got {threads}")
+
+
 def test_out_refuses_a_foreign_folder_unless_forced(tmp_path, capsys):
     path = cantilever(tmp_path / "p")
     out = tmp_path / "out"

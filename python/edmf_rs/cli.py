@@ -52,7 +52,9 @@ def _parser() -> argparse.ArgumentParser:
 
     rep = sub.add_parser("reproduce", parents=[common], description=REPRODUCE,
                          help="reproduce the paper: figures, Table 1 and results.json")
-    rep.add_argument("--out", default="edmf-out", help="output folder (default: %(default)s)")
+    rep.add_argument("--out", default="edmf-out", help="output folder (default: %(default)s); refused when it "
+                     "holds files a reproduction does not write, unless --force")
+    rep.add_argument("--force", action="store_true", help="write into an --out folder that holds other files")
     rep.add_argument("--seeds", type=int, default=200,
                      help="independent noise draws per method, scenario and n_m (default: %(default)s)")
     rep.add_argument("--seed", type=int, default=0, help="base random seed (default: %(default)s)")
@@ -89,10 +91,9 @@ def _parser() -> argparse.ArgumentParser:
 
     add_falsify(sub, common)  # edmf-rs falsify STORE --project P.toml
 
-    des = sub.add_parser("design", parents=[common], help="choose sensor locations before the test: "
-                         "joint-entropy placement and expected identifiability (a project with [design])")
-    des.add_argument("project", help="design project file, e.g. girder-design.toml")
-    des.add_argument("--out", default=None, help="output folder (default: PROJECT-out next to the project file)")
+    from .design.cli import add_parser as add_design
+
+    add_design(sub, common)  # edmf-rs design PROJECT.toml
     return parser
 
 
@@ -105,13 +106,13 @@ def main(argv: list[str] | None = None) -> int:
     debug = getattr(args, "traceback", False) or bool(os.environ.get("EDMF_RS_DEBUG"))
     try:
         if args.command == "reproduce":
-            from .paper.reproduce import reproduce_cli
+            from .paper.command import reproduce_cli
 
-            return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed)
+            return reproduce_cli(out=args.out, seeds=args.seeds, seed=args.seed, force=args.force)
         if args.command == "design":
             from .design.cli import design_cli
 
-            return design_cli(args.project, out=args.out)
+            return design_cli(args.project, out=args.out, force=args.force)
         if args.command == "falsify":
             from .project.refalsify import falsify_cli
 

@@ -126,7 +126,7 @@ def test_bad_thread_count():
         edmf_rs.set_num_threads(0)
     before = edmf_rs.get_num_threads()
     for n in (2**40, 2**70, 64 * (os.cpu_count() or 1) + 1025):  # 2**40 used to never return
-        with pytest.raises(ValueError, match=f"n: expected a number of threads from 1 to .*got {min(n, 2**63 - 1)}"):
+        with pytest.raises(ValueError, match=f"n: expected a number of threads from 1 to .*got {n}$"):  # as given
             edmf_rs.set_num_threads(n)
     assert edmf_rs.get_num_threads() == before
 

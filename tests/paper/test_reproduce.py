@@ -10,6 +10,7 @@ from edmf_rs.engine.thresholds import threshold_bounds
 from edmf_rs.examples import cantilever as cl
 from edmf_rs.paper import figures as plots
 from edmf_rs.paper import reproduce as rp
+from edmf_rs.paper.command import reproduce_cli
 from matplotlib.figure import Figure
 from scipy import stats
 
@@ -161,6 +162,33 @@ def test_cli_writes_every_file(cli_run, capsys):
         assert (out / name).stat().st_size > 0
 
 
+def test_out_naming_a_file_is_refused(tmp_path, capsys):
+    target = tmp_path / "f.txt"
+    target.write_text("mine\n")
+    assert cli.main(["reproduce", "--out", str(target), "--seeds", "2"]) == 2
+    assert f"--out {target}: expected a folder, it is a file" in capsys.readouterr().err  # was raw [Errno 17]
+    assert target.read_text() == "mine\n"
+
+
+def test_out_holding_other_files_is_refused_unless_forced(tmp_path, capsys):
+    # A user's results.json was replaced without a word.
+    (tmp_path / "results.json").write_text('{"mine": 1}\n')
+    (tmp_path / "notes.txt").write_text("mine\n")
+    assert cli.main(["reproduce", "--out", str(tmp_path), "--seeds", "2"]) == 2
+    assert "holds files a reproduction did not write (notes.txt, results.json)" in capsys.readouterr().err
+    assert (tmp_path / "results.json").read_text() == '{"mine": 1}\n' and len(list(tmp_path.iterdir())) == 2
+    assert cli.main(["reproduce", "--out", str(tmp_path), "--seeds", "2", "--force"]) == 0
+    assert "paper_table1" in json.loads((tmp_path / "results.json").read_text())
+    assert (tmp_path / "notes.txt").read_text() == "mine\n"
+
+
+def test_an_earlier_reproduction_is_written_over(cli_run, tmp_path):
+    (tmp_path / "results.json").write_bytes((cli_run[1] / "results.json").read_bytes())
+    (tmp_path / "table1.md").write_text("old\n")
+    assert cli.main(["reproduce", "--out", str(tmp_path), "--seeds", "2"]) == 0
+    assert json.loads((tmp_path / "results.json").read_text())["settings"]["seeds"] == 2
+
+
 def test_results_json_schema(cli_run):
     _, out = cli_run
     results = json.loads((out / "results.json").read_text(encoding="utf-8"))
@@ -203,5 +231,5 @@ def test_cli_rejects_non_positive_seeds(tmp_path, capsys):
     assert cli.main(["reproduce", "--out", str(tmp_path), "--seeds", "0"]) == 2
     assert "--seeds" in capsys.readouterr().err
     with pytest.raises(ValueError, match="--seeds"):
-        rp.reproduce_cli(out=str(tmp_path), seeds=-3)
+        reproduce_cli(out=str(tmp_path), seeds=-3)
     assert not any(tmp_path.iterdir())

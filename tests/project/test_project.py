@@ -86,6 +86,17 @@ BAD = {
     "no uncertainty": (with_sources(), ["uncertainty", "at least one [[uncertainty]]"]),
     "exclude unknown": (BASE.replace("file = \"meas.csv\"", "file = \"meas.csv\"\nexclude = [\"S7\"]"), ["measurements.exclude", "unknown sensor 'S7'"]),
     "toml syntax": (BASE.replace("phi = 0.95", "phi = = 0.95"), ["invalid TOML", "line 4"]),
+    "bad scale": (BASE.replace("[parameters.b]\nlow = 0.0\nhigh = 2.0", "[parameters.b]\nlow = 0.0\nhigh = 2.0\nscale = \"ln\""),
+                  ["parameters.b.scale: expected one of 'linear', 'log', got 'ln'"]),
+    # A negative seed passed validation and then failed in numpy, naming neither file nor key.
+    "negative sampling seed": (BASE.replace("method = \"grid\"\npoints = { a = 21, b = 21 }", "method = \"lhs\"\nn = 10\nseed = -1"),
+                               ["sampling.seed: expected a random seed, an integer >= 0, got -1"]),
+    "negative identification seed": (BASE.replace("phi = 0.95", "phi = 0.95\nseed = -1"),
+                                     ["identification.seed: expected a random seed, an integer >= 0, got -1"]),
+    "negative adaptive seed": (BASE.replace("method = \"grid\"\npoints = { a = 21, b = 21 }", "method = \"adaptive\"\nbudget = 60\nseed = -1"),
+                               ["sampling.seed: expected a random seed, an integer >= 0, got -1"]),
+    "seed not an integer": (BASE.replace("phi = 0.95", "phi = 0.95\nseed = true"),
+                            ["identification.seed: expected a random seed, an integer >= 0, got True"]),
 }
 
 
@@ -96,7 +107,7 @@ def test_bad_project_gives_one_clear_message(tmp_path, case):
     with pytest.raises(ProjectError) as err:
         Project.from_toml(path)
     message = str(err.value)
-    assert message.startswith(f"{path}: "), message
+    assert message.startswith(f"{path}: ") and message.count(path.name) == 1, message  # named once
     for fragment in fragments:
         assert fragment in message, message
 

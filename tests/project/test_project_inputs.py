@@ -162,3 +162,39 @@ def test_precomputed_csv_extra_columns_are_ignored_and_rows_must_agree(tmp_path)
     g.iloc[:250].to_csv(tmp_path / "g.csv", index=False)
     with pytest.raises(ProjectError, match=r"g\.csv: expected as many rows as theta\.csv \(at least 300\), got 250"):
         Project.from_toml(path).run(progress=False)
+
+
+def _precomputed_csv_project(tmp_path, rows=300):
+    theta = np.random.default_rng(3).uniform(0, 1, (rows, 2))
+    pd.DataFrame(theta, columns=["a", "b"]).to_csv(tmp_path / "theta.csv", index=False)
+    g = pd.DataFrame({"S1": theta[:, 0], "S2": 2.0 * theta[:, 1]})
+    g.to_csv(tmp_path / "g.csv", index=False)
+    toml = PROJECT.replace('[sampling]\nmethod = "grid"\npoints = { a = 11, b = 11 }\n', "").replace(
+        'function = "m:g"', 'predictions = "g.csv"\nparameters = "theta.csv"\nbatch_size = 64')
+    return write(tmp_path, "sensor,value\nS1,0.5\nS2,1.0\n", toml), g
+
+
+def test_precomputed_csv_gives_the_in_memory_candidates(tmp_path):
+    # Read in chunks of 64 rows that do not line up with the reader's batches.
+    path, g = _precomputed_csv_project(tmp_path)
+    ident = Project.from_toml(path).run(progress=False)
+    direct = edmf_rs.falsify(g.to_numpy(), [0.5, 1.0], ident.thresholds)
+    assert 0 < direct.n_candidates < 300
+    np.testing.assert_array_equal(ident.falsification.candidate_indices, direct.candidate_indices)
+
+
+@pytest.mark.parametrize("file", ["g.csv", "theta.csv"])
+@pytest.mark.parametrize("edit, got", [(lambda line: line.replace(".", ",", 1), 3),   # a decimal comma
+                                       (lambda line: line.rsplit(",", 1)[0], 1)],     # a field lost
+                         ids=["decimal-comma", "field-lost"])
+def test_precomputed_csv_rows_of_another_width_are_refused_with_the_line(tmp_path, capsys, file, edit, got):
+    # pandas.read_csv(usecols=...) dropped the extra field: "0,094,0.3" was read as 0 and 94,
+    # shifting every column after it (58 candidates instead of 59 on the cantilever, exit 0).
+    path, _ = _precomputed_csv_project(tmp_path)
+    lines = (tmp_path / file).read_text().splitlines()
+    lines[200] = edit(lines[200])
+    (tmp_path / file).write_text("\n".join(lines) + "\n")
+    assert cli.main(["run", str(path), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert f"{file}: line 201: expected 2 fields as in the header, got {got}" in err
+    assert not (tmp_path / "out" / "summary.json").exists()

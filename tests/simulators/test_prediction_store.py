@@ -57,6 +57,22 @@ def test_changing_the_model_or_the_sampling_evaluates_again(folder, tmp_path):
     assert (edited["model_evaluations"], edited["reused_evaluations"]) == (128, 0)
 
 
+def test_reordering_model_sensors_evaluates_again(folder, tmp_path):
+    # The store keeps a bare array's columns matched through [model] sensors: read back under
+    # another order, they gave the first order's candidates (59 where the right answer was none,
+    # on the cantilever example).
+    out = tmp_path / "out"
+    ordered = 'function = "lin_model:predict"\nsensors = ["S1", "S2", "S3", "S4"]'
+    swapped = 'function = "lin_model:predict"\nsensors = ["S2", "S1", "S3", "S4"]'
+    first = run(write_project(folder, ordered, n=128), out)
+    again = run(write_project(folder, swapped, n=128), out)
+    assert (again["model_evaluations"], again["reused_evaluations"]) == (128, 0)
+    fresh = run(write_project(folder, swapped, n=128), tmp_path / "fresh")
+    assert again["candidates"] == fresh["candidates"] != first["candidates"]
+    pd.testing.assert_frame_equal(pd.read_parquet(out / "candidates.parquet"),
+                                  pd.read_parquet(tmp_path / "fresh" / "candidates.parquet"))
+
+
 def test_a_command_models_store_holds_failures_too(folder, tmp_path):
     out = tmp_path / "out"
     project = write_project(folder, command_model("fail_high_a"), sd=5.0, n=32)

@@ -4,6 +4,7 @@ waited on as a FIFO; the run's clean-up keeps files it did not write."""
 from __future__ import annotations
 
 import os
+import warnings
 
 import edmf_rs
 import numpy as np
@@ -42,6 +43,17 @@ def test_a_lock_that_is_a_fifo_is_refused_not_waited_on(tmp_path):
     os.mkfifo(folder / ".lock")
     with pytest.raises(ValueError, match=r"\.lock is not a regular file"):
         edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
+
+
+def test_a_lock_that_is_a_directory_is_refused_not_run_unlocked(tmp_path):
+    predictions, y, t = _case()
+    folder = tmp_path / "run"
+    (folder / ".lock").mkdir(parents=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # formerly a warning, and the run went on unlocked
+        with pytest.raises(ValueError, match=r"run/\.lock is not a regular file"):
+            edmf_rs.falsify(predictions, y, t, checkpoint=folder, progress=False)
+    assert not (folder / "state.json").exists()
 
 
 def test_a_device_as_predictions_is_refused(tmp_path):

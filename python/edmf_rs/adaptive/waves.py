@@ -28,11 +28,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..engine._validate import finite_vector, positive_int
+from ..engine._validate import check_seed, finite_vector, positive_int
 from ..engine.durable import readonly as _readonly
 from ..engine.falsify import falsify
 from ..engine.model import evaluate
 from ..engine.sampling import Parameter
+from ..engine.sensors import sensor_match
 from ..engine.thresholds import Thresholds
 from .basis import VARIANCE_KEPT, emulators
 from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
@@ -83,7 +84,8 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                      n_initial: int | None = None, wave_size: int | None = None, n_screen: int = 10**6,
                      c: float = 3.0, seed: int = 0, final_size: int | None = None, max_waves: int = 20, volume_tolerance: float = 0.05,
                      sigma_tolerance: float = 0.05, validation_coverage: float = 0.9,
-                     nan: str = "raise", basis: str = "auto", variance_kept: float = VARIANCE_KEPT) -> AdaptiveResult:
+                     nan: str = "raise", basis: str = "auto", variance_kept: float = VARIANCE_KEPT,
+                     sensors: Sequence[str] | None = None) -> AdaptiveResult:
     """EDMF with an emulator steering where the real model runs (issue 16).
 
     Parameters
@@ -110,7 +112,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     c
         Screening margin in emulator standard deviations.
     seed
-        Seed of the Sobol' designs; the same inputs give the same result.
+        Seed of the Sobol' designs, an integer >= 0; the same inputs give the same result.
     max_waves
         Most adaptive waves between the initial design and the final wave.
     volume_tolerance, sigma_tolerance
@@ -133,6 +135,12 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     variance_kept
         With the PCA basis, the share of the standardised outputs' variance
         the kept components explain (default 0.999).
+    sensors
+        The names of the sensors of ``measurements``, in order: the model
+        may then return a ``pandas.DataFrame``, a mapping of sensor name to
+        column or a structured array, matched by name as in
+        :func:`edmf_rs.falsify_model` (outputs no sensor uses are ignored,
+        with a warning). Without it, named outputs are refused.
 
     Returns
     -------
@@ -141,9 +149,13 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
 
     Raises
     ------
+    TypeError
+        A model output with named columns but no ``sensors``; an argument of
+        the wrong type.
     ValueError
         Too few initial runs, a budget smaller than the initial design plus
-        one wave, NaN outputs with ``nan="raise"``, bad arguments.
+        one wave, NaN outputs with ``nan="raise"``, a sensor missing from
+        named outputs, bad arguments.
 
     Examples
     --------
@@ -166,6 +178,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     p = len(params)
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
     n_m = y.shape[0]
+    match = sensor_match(sensors, n_m)
     n_initial = 20 * p if n_initial is None else positive_int(n_initial, "n_initial")
     if n_initial < p + 1:
         raise ValueError(f"n_initial: expected at least n_params + 1 = {p + 1} runs to fit an emulator over "
@@ -195,8 +208,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     if basis == "auto":
         basis = "pca" if n_m > PCA_SENSORS else "sensors"
     max_waves = positive_int(max_waves, "max_waves")
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral):
-        raise TypeError(f"seed: expected an integer, got {type(seed).__name__}")
+    seed = check_seed(seed)
 
     def to_domain(u: np.ndarray) -> np.ndarray:
         return np.column_stack([q.from_unit(u[:, j]) for j, q in enumerate(params)])
@@ -209,7 +221,10 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
         fresh = store.new_rows(theta)
         if fresh.size == 0:
             return 0
-        g = evaluate(model, theta[fresh], store.n_runs, n_m, nan)
+        g = evaluate(model, theta[fresh], store.n_runs, n_m, nan, match=match)
+        if match is not None and store.n_runs == 0 and match.mapping.ignored:
+            warnings.warn(f"model outputs not among the sensors, ignored: {', '.join(match.mapping.ignored)}",
+                          UserWarning, stacklevel=3)
         store.add(u[fresh], theta[fresh], g, wave)
         return int(fresh.size)
 

@@ -84,6 +84,21 @@ def locations(values, name: str, n_locations: int, *, distinct: bool = True) -> 
     return out
 
 
+def seed(value):
+    """``value`` when numpy.random.default_rng accepts it (an integer >= 0, a
+    sequence of them, None, a Generator, BitGenerator or SeedSequence)."""
+    what = "an integer >= 0, a sequence of them, None or a numpy Generator/SeedSequence"
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"seed: expected {what}, got {value!r}")
+    try:
+        np.random.default_rng(value)
+    except TypeError:
+        raise TypeError(f"seed: expected {what}, got {value!r}") from None
+    except ValueError:
+        raise ValueError(f"seed: expected {what}, got {value!r}") from None
+    return value
+
+
 def nan_bin(policy: str) -> bool:
     if policy not in NAN_POLICIES:
         raise ValueError(f"nan_policy: expected one of {NAN_POLICIES}, got {policy!r}")
@@ -94,6 +109,42 @@ def non_negative(value, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value) or value < 0:
         raise ValueError(f"{name}: expected a finite number >= 0, got {value!r}")
     return float(value)
+
+
+def fixed_cost(costs, fixed) -> float:
+    """Total cost of the ``fixed`` locations."""
+    return float(np.asarray(costs, dtype=np.float64)[np.asarray(fixed, dtype=np.int64)].sum())
+
+
+def budget_problem(costs, fixed, budget: float):
+    """Why ``budget`` cannot pay for a design: ``("cheapest", cost)`` when it is
+    below the cheapest location, ``("fixed", cost)`` when below the cost of the
+    ``fixed`` locations; None when it can. The rule of :func:`place_sensors`
+    and of a design project's ``budget``."""
+    cheapest = float(np.min(costs))
+    if budget < cheapest:
+        return "cheapest", cheapest
+    total = fixed_cost(costs, fixed)
+    if total > budget:
+        return "fixed", total
+    return None
+
+
+def too_few_for_fixed(k: int, fixed) -> bool:
+    """``k`` sensors cannot hold the ``fixed`` ones."""
+    return k < len(fixed)
+
+
+def quota_below_fixed(max_per_type: dict, types, fixed):
+    """(type, fixed sensors of that type, its quota) of the first type (in
+    sorted order) whose quota is below its fixed sensors; None when none is."""
+    for t in sorted(set(types)):
+        if t not in max_per_type:
+            continue
+        used = sum(1 for i in fixed if types[i] == t)
+        if used > max_per_type[t]:
+            return t, used, max_per_type[t]
+    return None
 
 
 def quotas(max_per_type, types, fixed, n_locations: int):
@@ -118,8 +169,8 @@ def quotas(max_per_type, types, fixed, n_locations: int):
         limit.append(min(int(q), n_locations))
     index = {t: j for j, t in enumerate(names)}
     type_of = [index[t] for t in types]
-    for t, q in zip(names, limit):
-        used = sum(1 for i in fixed if types[i] == t)
-        if used > q:
-            raise ValueError(f"max_per_type: expected at least the {used} fixed sensors of type {t!r}, got {q}")
+    below = quota_below_fixed(max_per_type, types, fixed)
+    if below is not None:
+        t, used, q = below
+        raise ValueError(f"max_per_type: expected at least the {used} fixed sensors of type {t!r}, got {q}")
     return type_of, limit

@@ -16,7 +16,34 @@ from pathlib import Path
 
 import numpy as np
 
+from ..project.inputs import regular_file
 from ..project.table import ProjectError
+
+
+def files(predictions: Path | None, columns) -> tuple[Path, ...]:
+    """The files the predictions are read from (inputs an output must never replace)."""
+    if predictions is None:
+        return ()
+    return (predictions, predictions.parent / columns) if isinstance(columns, str) else (predictions,)
+
+
+def _decode(data: bytes, file: Path, label: str, key: str) -> str:
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ProjectError(f"{label}: {key}: {file}: expected UTF-8 text, got byte 0x{data[exc.start]:02x} "
+                           f"at byte {exc.start}; save the file as UTF-8") from None
+
+
+def _read(file: Path, label: str, key: str, first_line: bool = False) -> str:
+    """The text of a regular file (its first line only with ``first_line``: a CSV's numbers may be large)."""
+    regular_file(file, label, key)
+    try:
+        with open(file, "rb") as fh:
+            data = fh.readline() if first_line else fh.read()
+    except OSError as exc:
+        raise ProjectError(f"{label}: {key}: cannot read '{file}': {exc.strerror}") from None
+    return _decode(data, file, label, key)
 
 
 def column_names(file: Path, columns, label: str) -> tuple[str, ...] | None:
@@ -24,25 +51,19 @@ def column_names(file: Path, columns, label: str) -> tuple[str, ...] | None:
     suffix = file.suffix.lower()
     if suffix not in (".npy", ".csv"):
         raise ProjectError(f"{label}: design.predictions: expected a .npy or .csv file, got '{file.name}'")
-    if not file.is_file():
-        raise ProjectError(f"{label}: design.predictions: no such file '{file}'")
+    regular_file(file, label, "design.predictions")
     if suffix == ".csv":
         if columns is not None:
             raise ProjectError(f"{label}: design.columns: expected no columns for a CSV file (its header names them)")
-        with open(file, newline="", encoding="utf-8") as fh:
-            header = next(csv.reader(fh), None)
+        header = next(csv.reader([_read(file, label, "design.predictions", first_line=True)]), None)
         if not header:
             raise ProjectError(f"{file}: expected a header of candidate location names")
         return tuple(h.strip() for h in header)
     if columns is None:
         return None
     if isinstance(columns, str):
-        path = file.parent / columns
-        try:
-            names = [line.strip() for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
-        except FileNotFoundError:
-            raise ProjectError(f"{label}: design.columns: no such file '{path}'") from None
-        return tuple(names)
+        text = _read(file.parent / columns, label, "design.columns")
+        return tuple(line.strip() for line in text.splitlines() if line.strip())
     if isinstance(columns, list) and all(isinstance(c, str) for c in columns):
         return tuple(columns)
     raise ProjectError(f"{label}: design.columns: expected a list of location names or a text file of them, "

@@ -1,24 +1,86 @@
 """``edmf-rs design PROJECT.toml --out DIR``: choose sensor locations for a
 design project (see :mod:`edmf_rs.design.project`) and write design.json,
-design.csv, plots and report.html to DIR."""
+design.csv, plots and report.html to DIR.
+
+``--out`` is refused as ``edmf-rs run`` refuses it (a file; a non-empty
+folder that holds no earlier design of the project, unless ``--force``), and
+an output never replaces an input of the project, even with ``--force``.
+"""
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
+from ..project.command import MARKER, check_out
+from ..project.schema import ProjectError
+from ..stream.atomic import write_text
 from . import report
 from .entropy import interval_widths
 from .identifiability import identifiability_curve
 from .placement import place_sensors
-from .project import read_design_project
+from .project import DesignProject, read_design_project
+
+#: Every file a design writes into ``--out``.
+OUTPUT_FILES = ("design.json", "design.csv", "design_curves.png", "design_locations.png", "report.html", MARKER)
+
+HELP = """\
+Choose sensor locations before the test from a project file with a [design] table: joint-entropy
+placement of the candidate locations (per unit cost, within a budget) and the expected
+candidate-set size after each sensor. Writes design.json, design.csv, plots and report.html."""
 
 
-def run_design(project_path, out=None) -> dict:
+def add_parser(sub, common) -> None:
+    """The ``design`` subcommand of ``edmf-rs``."""
+    cmd = sub.add_parser("design", parents=[common], description=HELP, help="choose sensor locations before the "
+                         "test: joint-entropy placement and expected identifiability (a project with [design])")
+    cmd.add_argument("project", help="design project file, e.g. girder-design.toml")
+    cmd.add_argument("--out", default=None,
+                     help="output folder (default: PROJECT-out next to the project file); refused when not empty "
+                          "unless it holds an earlier design of the same project")
+    cmd.add_argument("--force", action="store_true",
+                     help="write into a non-empty --out folder (inputs of the project are never overwritten)")
+
+
+def _earlier_design(out: Path, project: DesignProject) -> bool:
+    """design.json of this project (written before designs left the run marker)."""
+    try:
+        doc = json.loads((out / "design.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(doc, dict) and doc.get("name") == project.name \
+        and Path(str(doc.get("project"))).name == project.file.name
+
+
+def check_design_out(out: Path, project: DesignProject, force: bool) -> None:
+    """Refuses an output folder the design must not write into (see the module docstring).
+
+    Raises
+    ------
+    ProjectError
+        ``out`` is a file; a non-empty folder that holds no earlier design of
+        this project (without ``force``); or an output would replace an input.
+    """
+    inputs = {f.resolve() for f in project.inputs}
+    for name in OUTPUT_FILES:
+        target = (out / name).resolve()
+        if target in inputs:
+            raise ProjectError(f"--out {out}: the design would overwrite {target}, an input of {project.file.name}; "
+                               "choose another output folder")
+    # The run's check with the design's own outputs checked above; the marker it
+    # recognises is the one run_design writes.
+    check_out(out, SimpleNamespace(file=project.file, name=project.name, inputs=()),
+              force or _earlier_design(out, project))
+
+
+def run_design(project_path, out=None, *, force: bool = False) -> dict:
     """Runs a design project; returns the paths written."""
     start = time.perf_counter()
     project = read_design_project(project_path)
     out = Path(out) if out is not None else Path(project.file).parent / f"{Path(project.file).stem}-out"
+    check_design_out(out, project, force)
     g = project.predictions()
     combined = project.combined_uncertainty(g)
     widths = interval_widths(combined, project.k, project.phi, project.correction)
@@ -30,6 +92,7 @@ def run_design(project_path, out=None) -> dict:
     curve = identifiability_curve(g, combined, design.order, n_simulations=project.n_simulations,
                                   phi=project.phi, correction=project.correction, seed=project.seed)
     elapsed = time.perf_counter() - start
+    write_text(out / MARKER, str(project.file.resolve()) + "\n")  # the folder is this project's from now on
     report.write_json(out, project, design, curve, widths, elapsed)
     report.write_csv(out, project, design, curve)
     plots = report.write_plots(out, project, design, curve)
@@ -37,8 +100,8 @@ def run_design(project_path, out=None) -> dict:
     return {"out": out, "design": design, "curve": curve}
 
 
-def design_cli(project_path, out=None) -> int:
-    result = run_design(project_path, out)
+def design_cli(project_path, out=None, force: bool = False) -> int:
+    result = run_design(project_path, out, force=force)
     d, c = result["design"], result["curve"]
     print(f"{len(d)} sensors chosen: " + ", ".join(str(i) for i in d.order.tolist()))
     print(f"joint entropy {d.joint_entropy[-1]:.3f} bits; smallest mean candidate set with {c.best} sensors "

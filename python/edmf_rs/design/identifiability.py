@@ -162,7 +162,7 @@ def expected_identifiability(predictions, combined, sensors, *, n_simulations: i
     phi, correction
         Target probability and multiple-comparison correction of the
         thresholds (as in :func:`edmf_rs.threshold_bounds`), for |S| sensors.
-    seed : int or numpy Generator seed
+    seed : int >= 0, sequence of them, None, or numpy Generator / SeedSequence
         Seed of the draws (:func:`edmf_rs.design.reference.draw_simulations`).
 
     Returns
@@ -173,7 +173,11 @@ def expected_identifiability(predictions, combined, sensors, *, n_simulations: i
     Raises
     ------
     ValueError
-        Sensors out of range or repeated, ``combined`` of another number of locations.
+        Sensors out of range or repeated, ``combined`` of another number of
+        locations, a negative ``seed``.
+    TypeError
+        A ``seed`` that is not an integer >= 0, a sequence of them, None or a
+        numpy Generator/SeedSequence.
 
     Examples
     --------
@@ -188,7 +192,7 @@ def expected_identifiability(predictions, combined, sensors, *, n_simulations: i
     sensors = _checks.locations(sensors, "sensors", g.shape[1])
     if not sensors:
         raise ValueError("sensors: expected at least one location")
-    truth, residuals = draw_simulations(combined, g.shape[0], n_sim, seed)
+    truth, residuals = draw_simulations(combined, g.shape[0], n_sim, _checks.seed(seed))
     sizes = _counts(g, combined, sensors, truth, residuals, phi, correction)
     return Identifiability(np.asarray(sensors, dtype=np.int64), sizes, g.shape[0])
 
@@ -237,7 +241,7 @@ def identifiability_curve(predictions, combined, order, *, n_simulations: int = 
     order = _checks.locations(order, "order", g.shape[1])
     if not order:
         raise ValueError("order: expected at least one location")
-    truth, residuals = draw_simulations(combined, g.shape[0], n_sim, seed)
+    truth, residuals = draw_simulations(combined, g.shape[0], n_sim, _checks.seed(seed))
     sizes = np.stack([_counts(g, combined, order[:m], truth, residuals, phi, correction)
                       for m in range(1, len(order) + 1)])
     return IdentifiabilityCurve(np.asarray(order, dtype=np.int64), sizes, g.shape[0])

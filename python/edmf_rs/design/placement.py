@@ -112,7 +112,8 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
     ------
     ValueError
         Bad widths, NaN predictions, k > L, fixed sensors out of range or
-        repeated, costs <= 0, a budget below the cheapest sensor, quotas of
+        repeated, costs <= 0, a budget below the cheapest sensor or the cost
+        of the fixed sensors, k below the number of fixed sensors, quotas of
         unknown types, below 0 or below the fixed sensors of a type; the
         message names the argument.
 
@@ -135,11 +136,11 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
         if c is None:
             raise ValueError("budget: expected costs to go with it (costs=...)")
         budget = _checks.non_negative(budget, "budget")
-        if budget < c.min():
-            raise ValueError(f"budget: expected at least the cheapest sensor ({c.min()}), got {budget}")
-        fixed_cost = float(c[np.asarray(fixed, dtype=np.int64)].sum())
-        if fixed_cost > budget:
-            raise ValueError(f"budget: expected at least the cost of the fixed sensors ({fixed_cost}), got {budget}")
+        problem = _checks.budget_problem(c, fixed, budget)
+        if problem is not None:
+            what, cost = problem
+            least = "the cheapest sensor" if what == "cheapest" else "the cost of the fixed sensors"
+            raise ValueError(f"budget: expected at least {least} ({cost}), got {budget}")
     if k is None:
         if budget is None:
             raise ValueError("k: expected a number of sensors (or a budget)")
@@ -147,7 +148,7 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
     k = _checks.index(k, "k")
     if not 1 <= k <= n_loc:
         raise ValueError(f"k: expected 1 <= k <= {n_loc} (the candidate locations), got {k}")
-    if k < len(fixed):
+    if _checks.too_few_for_fixed(k, fixed):
         raise ValueError(f"k: expected at least the {len(fixed)} fixed sensors, got {k}")
     if types is not None:
         types = tuple(str(t) for t in types)

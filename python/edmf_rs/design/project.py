@@ -27,8 +27,6 @@ for k sensors (:func:`edmf_rs.design.interval_widths`).
 
 from __future__ import annotations
 
-import csv
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,21 +45,10 @@ from ..project.schema import (
     _uncertainty,
 )
 from ..project.sources import combine_sources, resolve_sources
-from . import _precomputed
+from . import _checks, _precomputed
+from ._candidates import Candidate, read_candidates
 
 TOP_LEVEL = ("identification", "parameters", "sampling", "model", "uncertainty", "design")
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """One candidate sensor location."""
-
-    name: str
-    type: str
-    location: float | None
-    cost: float
-    load_case: str = ""
-    unit: str = ""
 
 
 @dataclass(frozen=True)
@@ -81,6 +68,7 @@ class DesignProject(IdentificationTable):
     fixed: tuple[int, ...]
     max_per_type: dict | None = None
     predictions_file: Path | None = None
+    inputs: tuple[Path, ...] = ()  # the files it reads (never overwritten by an output)
 
     @property
     def costs(self) -> np.ndarray:
@@ -131,45 +119,6 @@ def _columns(out, names: list[str], n: int, label) -> np.ndarray:
     return out
 
 
-def read_candidates(file: Path, label: str) -> tuple[Candidate, ...]:
-    """The candidate locations CSV: name, type, location, cost, load_case, unit (name and type required)."""
-    try:
-        with open(file, newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise ProjectError(f"{label}: design.candidates: no such file '{file}'") from None
-    if not rows:
-        raise ProjectError(f"{file}: expected a header (name,type,location,cost) and at least one location")
-    for col in ("name", "type"):
-        if col not in rows[0]:
-            raise ProjectError(f"{file}: expected a column '{col}' (columns: name, type, location, cost)")
-    result, seen = [], set()
-    for line, r in enumerate(rows, start=2):
-        name = (r.get("name") or "").strip()
-        if not name or name in seen:
-            raise ProjectError(f"{file}: line {line}: expected a unique location name, got {name!r}")
-        seen.add(name)
-        cost = _number(r.get("cost"), 1.0, file, line, "cost")
-        if not cost > 0:
-            raise ProjectError(f"{file}: line {line}: cost: expected a cost > 0, got {cost}")
-        location = _number(r.get("location"), None, file, line, "location")
-        result.append(Candidate(name, (r.get("type") or "").strip(), location, cost,
-                                (r.get("load_case") or "").strip(), (r.get("unit") or "").strip()))
-    return tuple(result)
-
-
-def _number(text, default, file, line, column):
-    if text is None or not text.strip():
-        return default
-    try:
-        value = float(text)
-    except ValueError:
-        raise ProjectError(f"{file}: line {line}: {column}: expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise ProjectError(f"{file}: line {line}: {column}: expected a finite number, got {text!r}")
-    return value
-
-
 def read_design_project(path: str | Path) -> DesignProject:
     """Reads and checks a design project file; raises ProjectError naming the file and key."""
     path = Path(path)
@@ -180,8 +129,8 @@ def read_design_project(path: str | Path) -> DesignProject:
     t = root.table("design")
     t.check_keys(("candidates", "k", "budget", "tolerance", "n_simulations", "fixed", "max_per_type", "predictions",
                   "columns"))
-    candidates = read_candidates(path.parent / t.get("candidates", "str", what="a CSV file of candidate locations"),
-                                 label)
+    candidates_file = path.parent / t.get("candidates", "str", what="a CSV file of candidate locations")
+    candidates = read_candidates(candidates_file, label)
     predictions_file = t.get("predictions", "str", None, what="a .npy or .csv file of predictions")
     function = sampling = model = None
     if predictions_file is not None:
@@ -204,15 +153,13 @@ def read_design_project(path: str | Path) -> DesignProject:
     if not 1 <= k <= len(candidates):
         raise t.error("k", f"a number of sensors in 1..{len(candidates)} (the candidate locations)", k)
     budget = t.get("budget", "positive", None)
-    tolerance = t.get("tolerance", "number", None)
+    tolerance = t.get("tolerance", "number", None, what="a gain in bits >= 0")
+    if tolerance is not None and tolerance < 0:
+        raise t.error("tolerance", "a gain in bits >= 0", t.data["tolerance"])
     n_sim = t.get("n_simulations", "int", 1000, what="a positive integer")
     if n_sim < 1:
         raise t.error("n_simulations", "a positive integer", n_sim)
-    fixed_names = t.get("fixed", "list", [], what="a list of candidate names")
-    index = {c.name: i for i, c in enumerate(candidates)}
-    unknown = [f for f in fixed_names if f not in index]
-    if unknown:
-        raise t.error("fixed", "names of candidate locations", unknown[0])
+    fixed = _fixed(t, candidates)
     max_per_type = t.get("max_per_type", "table", None, what="a table of sensor type = most sensors")
     if max_per_type is not None:
         types = {c.type for c in candidates}
@@ -221,9 +168,53 @@ def read_design_project(path: str | Path) -> DesignProject:
                 raise t.error("max_per_type", f"sensor types of the candidates ({', '.join(sorted(types))})", key)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise t.error("max_per_type", f"a number of sensors >= 0 for {key!r}", value)
+    _fixed_within_limits(t, candidates, fixed, k, budget, max_per_type)
     return DesignProject(
         **ident, sampling=sampling, candidates=candidates,
         uncertainty=sources, model_function=function, model_options=model.options if model else {},
         batch_size=model.batch_size if model else 0, k=k, budget=budget, tolerance=tolerance, n_simulations=n_sim,
-        fixed=tuple(index[f] for f in fixed_names), max_per_type=max_per_type, predictions_file=predictions_file,
+        fixed=fixed, max_per_type=max_per_type, predictions_file=predictions_file,
+        inputs=(path, candidates_file, *_precomputed.files(predictions_file, t.data.get("columns"))),
     )
+
+
+def _fixed_within_limits(t, candidates, fixed, k, budget, max_per_type) -> None:
+    """The checks :func:`place_sensors` makes of ``budget``, ``k`` and
+    ``max_per_type`` against the fixed sensors (the same rules), made when the
+    project is read so that the message names the file and the keys."""
+    def where(key: str) -> str:
+        return f"{t.file}: {t.path(key)}"
+
+    if budget is not None:
+        costs = [c.cost for c in candidates]
+        problem = _checks.budget_problem(costs, fixed, budget)
+        if problem is not None:
+            what, cost = problem
+            least = ("the cost of the cheapest candidate location" if what == "cheapest"
+                     else f"the cost of the {len(fixed)} sensors of {t.path('fixed')}")
+            raise ProjectError(f"{where('budget')}: expected at least {cost} ({least}), got {budget}")
+    if _checks.too_few_for_fixed(k, fixed):
+        raise ProjectError(f"{where('k')}: expected at least {len(fixed)} (the sensors of {t.path('fixed')}), "
+                           f"got {k}")
+    if max_per_type is not None:
+        below = _checks.quota_below_fixed(max_per_type, [c.type for c in candidates], fixed)
+        if below is not None:
+            kind, used, quota = below
+            raise ProjectError(f"{where('max_per_type')}: expected at least {used} for {kind!r} (the sensors of "
+                               f"type {kind!r} in {t.path('fixed')}), got {quota}")
+
+
+def _fixed(t, candidates) -> tuple[int, ...]:
+    """Indices of the ``fixed`` candidate names (each named once)."""
+    names = t.get("fixed", "list", [], what="a list of candidate names")
+    if not all(isinstance(f, str) for f in names):
+        raise t.error("fixed", "a list of candidate names (strings)", names)
+    index = {c.name: i for i, c in enumerate(candidates)}
+    unknown = [f for f in names if f not in index]
+    if unknown:
+        raise t.error("fixed", "names of candidate locations", unknown[0])
+    twice = [f for i, f in enumerate(names) if f in names[:i]]
+    if twice:
+        raise ProjectError(f"{t.file}: {t.path('fixed')}: expected distinct candidate names, got {twice[0]!r} "
+                           "more than once")
+    return tuple(index[f] for f in names)

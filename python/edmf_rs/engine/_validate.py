@@ -4,8 +4,12 @@ argument and says what was expected."""
 from __future__ import annotations
 
 import numbers
+import os
 
 import numpy as np
+
+#: What a ``seed`` may be besides a non-negative integer, where a Generator is accepted.
+_GENERATORS = (np.random.Generator, np.random.BitGenerator, np.random.SeedSequence)
 
 
 def probability(value, name: str) -> float:
@@ -24,6 +28,38 @@ def positive_int(value, name: str) -> int:
     if value < 1:
         raise ValueError(f"{name}: expected a positive integer, got {value}")
     return int(value)
+
+
+def check_seed(seed, name: str = "seed", *, generator: bool = False):
+    """A random seed: an integer >= 0 (NumPy's SeedSequence refuses negatives
+    without naming the argument). With ``generator``, None or a NumPy
+    Generator (BitGenerator, SeedSequence) passes through unchanged."""
+    if generator and (seed is None or isinstance(seed, _GENERATORS)):
+        return seed
+    expected = "an integer >= 0" + (", a numpy.random.Generator or None" if generator else "")
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
+        raise TypeError(f"{name}: expected {expected}, got {type(seed).__name__}")
+    if seed < 0:
+        raise ValueError(f"{name}: expected {expected}, got {seed}")
+    return int(seed)
+
+
+def memory_bytes() -> int | None:
+    """Physical memory of this machine (None where it cannot be read)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def fits_in_memory(n_bytes: int, name: str, what: str, instead: str) -> None:
+    """Refuses up front, with the number, an array of more than half this
+    machine's memory: allocating it would swap for hours or be killed.
+    ``what`` describes the array, ``instead`` what to give instead."""
+    have = memory_bytes()
+    if have is not None and n_bytes > have // 2:
+        raise ValueError(f"{name}: {what} ({n_bytes / 2**30:,.1f} GiB), more than half this machine's memory "
+                         f"({have / 2**30:,.1f} GiB); expected {instead}")
 
 
 def finite_vector(values, name: str, n: int | None = None) -> np.ndarray:

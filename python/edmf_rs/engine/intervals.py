@@ -34,6 +34,34 @@ def split(dist, n: int) -> list:
     return [dist.dist(*(a[i] for a in args), **{k: v[i] for k, v in kwds.items()}) for i in range(n)]
 
 
+def check_parameters(dist, name: str, n: int | None = None, *, sensor: int = 0,
+                     zero_scale: bool = False) -> np.ndarray:
+    """Refuses, naming ``name`` and the sensor, parameters scipy would turn
+    into NaN quantiles without a word: a non-finite location or scale, a
+    scale <= 0 (a normal's sd, a uniform's width; 0 allowed with
+    ``zero_scale``, a fixed offset when drawing samples) or shape parameters
+    outside the family's domain. ``dist`` is vectorised over ``n`` sensors,
+    or scalar and at ``sensor``. Returns the scale per sensor (n, or 1)."""
+    family = dist.dist.name
+    shapes, loc, scale = dist.dist._parse_args(*dist.args, **dist.kwds)
+    size = (n or 1,)
+    loc, scale = (np.broadcast_to(np.asarray(v, dtype=float), size) for v in (loc, scale))
+    shapes = [np.broadcast_to(np.asarray(a, dtype=float), size) for a in shapes]
+    spread = (scale >= 0) if zero_scale else (scale > 0)
+    checks = [("a finite location", ~np.isfinite(loc), lambda i: f"loc={loc[i]}"),
+              (f"a finite scale {'>=' if zero_scale else '>'} 0", ~(np.isfinite(scale) & spread),
+               lambda i: f"scale={scale[i]}")]
+    if shapes:
+        checks.append((f"shape parameters valid for scipy.stats.{family}",
+                       ~np.broadcast_to(dist.dist._argcheck(*shapes), size),
+                       lambda i: "shape parameters " + ", ".join(str(a[i]) for a in shapes)))
+    for expected, bad, got in checks:
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{name}: expected {expected}, got {got(i)} at sensor {i if n else sensor} ({family})")
+    return scale
+
+
 def is_symmetric(dist) -> bool:
     """True when a scalar frozen distribution is symmetric about its median:
     every member of a symmetric family, else ``ppf(q) + ppf(1 - q) = 2 median``

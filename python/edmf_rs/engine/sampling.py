@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import os
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -20,20 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from ..engine._validate import positive_int
+from ..engine._validate import check_seed, fits_in_memory, positive_int
 
 SCALES = ("linear", "log")
 METHODS = ("grid", "lhs", "sobol")
 #: Instances a plan can count (the instance index is an int64).
 MAX_COUNT = 2**63 - 1
-
-
-def memory_bytes() -> int | None:
-    """Physical memory of this machine (None where it cannot be read)."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):
-        return None
 
 
 @dataclass(frozen=True)
@@ -195,12 +186,9 @@ def latin_hypercube(parameters: Sequence[Parameter], n: int, seed: int | None = 
     """
     parameters = _parameters(parameters)
     n = positive_int(n, "n")
-    need, have = 8 * n * len(parameters), memory_bytes()
-    if have is not None and need > have // 2:
-        raise ValueError(f"n: a Latin hypercube of {n:,} instances is drawn whole ({n:,} x {len(parameters)} values, "
-                         f"{need / 2**30:,.1f} GiB), more than half this machine's memory ({have / 2**30:,.1f} GiB); "
-                         "expected a smaller n, or method = 'sobol', which is streamed")
-    return Sampling(parameters, "lhs", n, seed=seed)
+    fits_in_memory(8 * n * len(parameters), "n", f"a Latin hypercube of {n:,} instances is drawn whole "
+                   f"as {n:,} x {len(parameters)} values", "a smaller n, or method = 'sobol', which is streamed")
+    return Sampling(parameters, "lhs", n, seed=check_seed(seed, generator=True))
 
 
 def sobol(parameters: Sequence[Parameter], n: int, seed: int | None = None) -> Sampling:
@@ -211,4 +199,4 @@ def sobol(parameters: Sequence[Parameter], n: int, seed: int | None = None) -> S
     n = positive_int(n, "n")
     if n > MAX_COUNT:
         raise ValueError(f"n: {n:,} instances is more than can be counted ({MAX_COUNT:,})")
-    return Sampling(_parameters(parameters), "sobol", n, seed=seed)
+    return Sampling(_parameters(parameters), "sobol", n, seed=check_seed(seed, generator=True))

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _core
 from . import convolution, intervals, mc_intervals
-from ._validate import finite_vector, positive_int, probability
+from ._validate import check_seed, finite_vector, positive_int, probability
 
 CORRECTIONS = ("sidak", "bonferroni", "none")
 METHODS = ("convolution", "monte-carlo")
@@ -276,8 +276,11 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
     TypeError
         If ``combined`` is none of the above.
     ValueError
-        If ``phi``, ``correction`` or ``method`` is invalid, or there are too few samples
-        (the message says how many are needed).
+        If ``phi``, ``correction``, ``method`` or ``seed`` is invalid, a
+        distribution has a non-finite location, a scale <= 0 or shape
+        parameters outside its family's domain (the message names the
+        sensor), or there are too few samples (the message says how many
+        are needed).
 
     Warns
     -----
@@ -296,6 +299,7 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
 
     phi = probability(phi, "phi")
     confidence = probability(confidence, "confidence")
+    seed = None if seed is None else check_seed(seed)
     if estimator not in ("conservative", "shortest"):
         raise ValueError(f"estimator: expected 'conservative' or 'shortest', got {estimator!r}")
     if method not in METHODS:
@@ -312,6 +316,7 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
             raise ValueError(
                 f"combined: expected a distribution vectorised over the sensors (1-D), got batch shape {shape}"
             )
+        intervals.check_parameters(combined, "combined", shape[0])
         p = sensor_probability(phi, shape[0], correction)
         if combined.dist.name in intervals.SYMMETRIC_UNIMODAL:
             # Eq. 6 for every sensor at once; elementwise the same ppf as the per-sensor call.
@@ -328,6 +333,7 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
                     f"combined: expected one scalar distribution per sensor, element {i} is vectorised "
                     f"over shape {intervals.batch_shape(d)}"
                 )
+            intervals.check_parameters(d, "combined", sensor=i)
         p = sensor_probability(phi, len(combined), correction)
         low, high = intervals.shortest_intervals(combined, p)
         return Thresholds(low, high, phi=phi, probability=p, correction=correction,

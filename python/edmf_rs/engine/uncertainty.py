@@ -17,7 +17,7 @@ import numpy as np
 from scipy import stats
 
 from . import intervals
-from ._validate import finite_vector, positive_int
+from ._validate import check_seed, finite_vector, fits_in_memory, positive_int
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,7 +165,7 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         frozen distributions, one per sensor.
     n_samples : int, default 200_000
         Monte Carlo samples of U_c when some source is not normal.
-    seed : int, numpy.random.Generator or None, default 0
+    seed : int >= 0, numpy.random.Generator or None, default 0
         Seed of those samples (fixed by default, so two identical calls give
         identical samples and bounds); recorded on the result.
     n_sensors : int, optional
@@ -180,12 +180,15 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     Raises
     ------
     TypeError
-        If a source is not a frozen ``scipy.stats`` distribution or a list of them.
+        If a source is not a frozen ``scipy.stats`` distribution or a list of
+        them, or ``seed`` is none of the above.
     ValueError
         If there is no source, the sources disagree on the number of sensors,
-        every source is scalar and ``n_sensors`` is missing, the combined
-        standard deviation is zero at a sensor, or a distribution gives
-        non-finite samples.
+        every source is scalar and ``n_sensors`` is missing, a source has a
+        non-finite location, a negative scale or shape parameters outside
+        its family's domain, the combined standard deviation is zero at a
+        sensor, the samples would not fit in half this machine's memory,
+        ``seed`` is negative, or a distribution gives non-finite samples.
 
     Examples
     --------
@@ -210,6 +213,7 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     >>> uc.exact, uc.seed, uc.samples.shape, bool(uc.symmetric.all())
     (False, 0, (10000, 3), True)
     """
+    seed = check_seed(seed, generator=True)
     sources = []
     for sign, group, name in ((1.0, model, "model"), (-1.0, measurement, "measurement")):
         if intervals.is_frozen(group):
@@ -235,6 +239,7 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     if not sizes:
         raise ValueError("n_sensors: every source is scalar, so give n_sensors")
     n_m = sizes.pop()
+    n_samples = _check_sources(sources, n_m, n_samples, "n_sensors" if n_sensors is not None else "n_samples")
     for group in ("model", "measurement"):
         scalar = [nm for _, per, _, n, nm in sources if nm.startswith(group + "[") and per is None and n is None]
         if len(scalar) >= 2 and len(scalar) == n_m:
@@ -264,7 +269,6 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=sd), seed=_seed_record(seed),
                                    gaussian=np.ones(n_m, dtype=bool), symmetric=np.ones(n_m, dtype=bool))
 
-    n_samples = positive_int(n_samples, "n_samples")
     marginals = []
     for j in range(n_m):
         if normal[j]:
@@ -284,14 +288,41 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
             draws = np.column_stack([d.rvs(size=n_samples, random_state=rng) for d in group])
         if not np.all(np.isfinite(draws)):
             raise ValueError(f"{name}: its distribution gave non-finite samples (check its parameters)")
-        samples += sign * draws
+        if sign > 0:  # in place: no third array of n_samples x n_m
+            samples += draws
+        else:
+            samples -= draws
     per_sensor_sources = tuple(tuple((s[0], group[j]) for s, group in zip(sources, per_sensor)) for j in range(n_m))
     return CombinedUncertainty(n_m, samples=samples, marginals=tuple(marginals), symmetric=symmetric,
                                gaussian=np.array(normal), seed=_seed_record(seed), sources=per_sensor_sources)
 
 
+def _check_sources(sources, n_m: int, n_samples, size_name: str):
+    """Refuses, up front, parameters scipy would turn into NaN, a sensor whose
+    every source has scale 0, and sizes past this machine's memory
+    (n_sensors = 10**12 once swapped for hours). Returns n_samples, checked
+    when Monte Carlo samples are drawn (some source not normal)."""
+    sampled = not all(d.dist.name == "norm" for _, per, dist, _, _ in sources for d in (per or [dist]))
+    if sampled:
+        n_samples = positive_int(n_samples, "n_samples")
+        fits_in_memory(16 * n_samples * n_m, size_name, f"{n_samples:,} Monte Carlo samples at {n_m:,} sensors "
+                       f"are drawn as 2 x {n_samples:,} x {n_m:,} values", "fewer sensors or a smaller n_samples")
+    else:
+        fits_in_memory(64 * n_m, size_name, f"U_c at {n_m:,} sensors takes 8 x {n_m:,} values", "fewer sensors")
+    spread = np.zeros(n_m, dtype=bool)
+    for _, per_sensor, dist, _, name in sources:  # a scale of 0 is a fixed offset
+        for j, d in enumerate(per_sensor or ()):
+            spread[j] |= intervals.check_parameters(d, name, sensor=j, zero_scale=True)[0] > 0
+        if dist is not None:
+            spread |= intervals.check_parameters(dist, name, n_m, zero_scale=True) > 0
+    if not spread.all():  # U_c constant there: zero-width thresholds would falsify every instance
+        i = int(np.flatnonzero(~spread)[0])
+        raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
+    return n_samples
+
+
 def _seed_record(seed):
-    """The seed as recorded on the result: an int (or list of ints), None for a Generator."""
+    """The seed as recorded on the result: an int, None for a Generator."""
     if seed is None or isinstance(seed, (np.random.Generator, np.random.BitGenerator, np.random.SeedSequence)):
         return None
     return seed

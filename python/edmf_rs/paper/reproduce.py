@@ -61,6 +61,7 @@ from ..engine.thresholds import Thresholds, threshold_bounds
 from ..stream.atomic import write_text
 from . import cantilever as cl
 from . import coverage as cov
+from .out_folder import check_out
 from .baselines import (
     LeastSquaresResult,
     PosteriorResult,
@@ -369,13 +370,14 @@ def _seeds(seeds) -> int:
     return int(seeds)
 
 
-def reproduce(out, seeds: int = 200, seed: int = 0) -> Reproduction:
+def reproduce(out, seeds: int = 200, seed: int = 0, *, force: bool = False) -> Reproduction:
     """Compute everything and write the figures, table1.md and results.json into ``out``.
 
     Parameters
     ----------
     out : str or pathlib.Path
-        Output folder, created if missing.
+        Output folder, created if missing; refused when it holds files a
+        reproduction does not write, unless ``force``.
     seeds, seed : int
         Noise draws per method, scenario and n_m (default 200); base seed (default 0).
 
@@ -386,7 +388,8 @@ def reproduce(out, seeds: int = 200, seed: int = 0) -> Reproduction:
     Raises
     ------
     TypeError, ValueError, OSError
-        If ``seeds`` or ``seed`` is not a valid integer; if a file cannot be written.
+        If ``seeds`` or ``seed`` is not a valid integer; if ``out`` is a file or
+        holds other files (without ``force``); if a file cannot be written.
 
     Examples
     --------
@@ -403,6 +406,7 @@ def reproduce(out, seeds: int = 200, seed: int = 0) -> Reproduction:
     if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
         raise ValueError(f"--seed: expected a non-negative integer, got {seed!r}")
     out = Path(out)
+    check_out(out, {COVERAGE_FIGURE, *FIGURES.values(), "table1.md", "results.json"}, force)
     out.mkdir(parents=True, exist_ok=True)
     # results.json is written last: without it, a folder's outputs are known to be incomplete.
     (out / "results.json").unlink(missing_ok=True)
@@ -425,26 +429,7 @@ def reproduce(out, seeds: int = 200, seed: int = 0) -> Reproduction:
     return Reproduction(coverage_results, rates, table, files, time.perf_counter() - start)
 
 
-def reproduce_cli(out: str = "edmf-out", seeds: int = 200, seed: int = 0) -> int:
-    """``edmf-rs reproduce``: run :func:`reproduce`, print Table 1 and the rates."""
-    rep = reproduce(out, seeds, seed)
-    print("Table 1 (Goulet & Smith 2013), derived from the correct rates:")
-    print(format_table1(rep.table))
-    verdict = "matches" if rep.table == PAPER_TABLE1 else "DIFFERS FROM"
-    print(f"This {verdict} the paper's Table 1. Rule: {RULES['table']}")
-    print()
-    print(f"Correct rates over {seeds} noise draws (median candidate-set / HPD-set size):")
-    print(format_rates(rep.rates))
-    print()
-    print("Fig. 3 coverage:")
-    print(format_coverage(rep.coverage))
-    print()
-    print(f"Wrote {len(rep.files)} files to {Path(out)} in {rep.seconds:.1f} s")
-    return 0
-
-
 __all__ = [
     "Identification", "Rate", "Reproduction", "RULES", "PAPER_TABLE1", "edmf_thresholds", "identify",
-    "judge", "identification_rates", "table1", "example_identifications", "reproduce", "reproduce_cli",
-    "measurement_draws",
+    "judge", "identification_rates", "table1", "example_identifications", "reproduce", "measurement_draws",
 ]

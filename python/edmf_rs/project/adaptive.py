@@ -86,7 +86,7 @@ def adaptive_sampling(table, parameters) -> AdaptiveSampling:
         raise table.error("c", "a number >= 0", c)
     return AdaptiveSampling(parameters, budget=count("budget", 40 * p + 200), n_initial=count("n_initial", None, p + 1),
                             wave_size=count("wave_size", None), n_screen=count("n_screen", 2**20),
-                            c=c, seed=table.get("seed", "int", 0),
+                            c=c, seed=table.get("seed", "seed", 0),
                             basis=table.get("basis", "choice", "auto", choices=("auto", "sensors", "pca")))
 
 

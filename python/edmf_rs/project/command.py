@@ -76,7 +76,10 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
 
         if threads < 1:
             raise ProjectError(f"--threads: expected a positive number of threads, got {threads}")
-        set_num_threads(threads)
+        try:
+            set_num_threads(threads)
+        except ValueError as exc:  # too many: the core's bound, said of this option
+            raise ProjectError(f"--threads: {str(exc).removeprefix('n: ')}") from None
     project = Project.from_toml(project_path)
     if scheduler is not None and getattr(project.sampling, "method", None) == "adaptive":
         raise ProjectError(f"--scheduler {scheduler}: not with method = \"adaptive\" in {project.file} (its waves "

@@ -23,11 +23,16 @@ def command_model(spec, all_sensors, label: str) -> CommandModel:
 
 
 def sampling_key(project) -> dict:
-    """The sampling as the prediction store's fingerprint records it (with every sensor's name)."""
-    return {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
-            "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
-            "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters],
-            "sensors": [s.name for s in project.all_sensors]}
+    """The sampling as the prediction store's fingerprint records it (with every sensor's name and,
+    when ``[model] sensors`` gives it, the sensor of each column of a bare model array: the store
+    keeps columns matched through it, so another order must not read them)."""
+    key = {"method": project.sampling.method, "seed": project.sampling.seed, "points": project.sampling.points,
+           "n": project.sampling.n if project.sampling.method == "lhs" else None,  # Sobol' and grids extend
+           "parameters": [(p.name, p.low, p.high, p.scale) for p in project.parameters],
+           "sensors": [s.name for s in project.all_sensors]}
+    if project.model.sensors is not None:  # absent: the measurements' order, already in "sensors"
+        key["model_sensors"] = list(project.model.sensors)
+    return key
 
 
 def project_fingerprint(project) -> dict:

@@ -92,4 +92,4 @@ def identification(root: Table, path: Path, *, phi_ok=lambda phi: PHI_LOW <= phi
         raise ident.error("n_samples", "a number of Monte Carlo samples >= 1000", n_samples)
     return dict(file=path, name=ident.get("name", "str", path.stem), description=ident.get("description", "str", ""),
                 phi=phi, correction=ident.get("correction", "choice", "sidak", choices=CORRECTIONS),
-                n_samples=n_samples, seed=ident.get("seed", "int", 0))
+                n_samples=n_samples, seed=ident.get("seed", "seed", 0))

@@ -5,6 +5,7 @@ file, the key or line, and what was expected."""
 from __future__ import annotations
 
 import importlib
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -96,6 +97,19 @@ def _forget_if_from_elsewhere(module_name: str, folder: Path) -> None:
     if cached_file is None or Path(cached_file).resolve() != local.resolve():
         for name in [n for n in sys.modules if n == top or n.startswith(top + ".")]:
             del sys.modules[name]
+
+
+def cell_number(text: str, file: Path, line: int, column: str, comma_hint: str) -> float:
+    """The finite number in a (non-empty) CSV cell, or a ProjectError naming the file, line and
+    column, with ``comma_hint`` when the cell holds a comma."""
+    try:
+        value = float(text)
+    except ValueError:
+        hint = comma_hint if "," in text else ""
+        raise ProjectError(f"{file}: line {line}: {column}: expected a number, got {text!r}{hint}") from None
+    if not math.isfinite(value):
+        raise ProjectError(f"{file}: line {line}: {column}: expected a finite number, got {text!r}")
+    return value
 
 
 def table_columns(file: Path, key: str, label: str) -> list[str] | int:

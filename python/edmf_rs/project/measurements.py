@@ -13,10 +13,9 @@ from __future__ import annotations
 import codecs
 import csv
 import io
-import math
 from pathlib import Path
 
-from .inputs import regular_file
+from .inputs import cell_number, regular_file
 from .schema import ProjectError, Sensor
 
 COLUMNS = ("sensor", "value", "type", "location", "unit")
@@ -111,11 +110,4 @@ def _number(text, file: Path, line: int, column: str, required: bool, decimal: s
             raise ProjectError(f"{file}: line {line}: {column}: expected a number with a decimal comma "
                                f"(decimal = \",\"), got {text!r}")
         text = text.replace(",", ".")
-    try:
-        value = float(text)
-    except ValueError:
-        hint = COMMA_HINT if "," in text else ""
-        raise ProjectError(f"{file}: line {line}: {column}: expected a number, got {text!r}{hint}") from None
-    if not math.isfinite(value):
-        raise ProjectError(f"{file}: line {line}: {column}: expected a finite number, got {text!r}")
-    return value
+    return cell_number(text, file, line, column, COMMA_HINT)

@@ -65,12 +65,7 @@ def iter_table(file: Path, columns: Sequence[str] | Sequence[int], key: str, chu
         if suffix == ".npy":
             yield from _iter_npy(file, [int(c) for c in columns], chunk_rows)
         elif suffix == ".csv":
-            import pandas as pd
-
-            names = [str(c) for c in columns]
-            with pd.read_csv(file, usecols=names, chunksize=chunk_rows) as reader:
-                for frame in reader:
-                    yield frame[names].to_numpy(dtype=np.float64)
+            yield from _iter_csv(file, [str(c) for c in columns], key, chunk_rows)
         else:
             import pyarrow.parquet as pq
 
@@ -82,6 +77,46 @@ def iter_table(file: Path, columns: Sequence[str] | Sequence[int], key: str, chu
         raise
     except (ValueError, TypeError) as exc:
         raise ProjectError(f"{file}: expected numbers in every column used ({key}): {exc}") from None
+
+
+def _iter_csv(file: Path, names: list[str], key: str, chunk_rows: int) -> Iterator[np.ndarray]:
+    """Chunks of exactly ``chunk_rows`` rows (the last one shorter), read by pyarrow's streaming
+    CSV reader: unlike ``pandas.read_csv(usecols=...)``, it refuses a row with more or fewer
+    fields than the header, so a decimal comma (``0,094``) cannot shift the columns after it."""
+    import pyarrow as pa
+    import pyarrow.csv as pc
+
+    bad = []  # the row pyarrow refused (an exception raised in the handler does not reach us)
+
+    def invalid(row) -> str:
+        bad.append(row)
+        return "error"
+
+    def batches():
+        try:
+            yield from pc.open_csv(file, read_options=pc.ReadOptions(use_threads=False),
+                                   parse_options=pc.ParseOptions(invalid_row_handler=invalid),
+                                   convert_options=pc.ConvertOptions(include_columns=names,
+                                                                     column_types=dict.fromkeys(names, pa.float64())))
+        except pa.ArrowInvalid:
+            if not bad:
+                raise
+            row = bad[0]
+            raise ProjectError(f"{file}: line {row.number}: expected {row.expected_columns} fields as in the "
+                               f"header, got {row.actual_columns} ({key}); a decimal comma or a stray delimiter? "
+                               f"The line reads {row.text[:60]!r}") from None
+
+    pending, have = [], 0
+    for batch in batches():
+        pending.append(np.column_stack([batch.column(n).to_numpy(zero_copy_only=False) for n in names])
+                       if names else np.empty((batch.num_rows, 0)))
+        have += batch.num_rows
+        while have >= chunk_rows:
+            rows = np.concatenate(pending) if len(pending) > 1 else pending[0]
+            yield rows[:chunk_rows]
+            pending, have = [rows[chunk_rows:]], have - chunk_rows
+    if have:
+        yield np.concatenate(pending)
 
 
 def _iter_npy(file: Path, columns: list[int], chunk_rows: int) -> Iterator[np.ndarray]:

@@ -144,9 +144,9 @@ def _parameters(root: Table) -> tuple[Parameter, ...]:
         t.check_keys(("low", "high", "unit", "scale"))
         low = t.get("low", "number", what="the lower bound of the domain, a number")
         high = t.get("high", "number", what="the upper bound of the domain, a number")
-        try:
-            result.append(Parameter(name, low, high, unit=t.get("unit", "str", ""),
-                                    scale=t.get("scale", "choice", "linear", choices=("linear", "log"))))
+        unit, scale = t.get("unit", "str", ""), t.get("scale", "choice", "linear", choices=("linear", "log"))
+        try:  # (outside: ProjectError is a ValueError, and its message names the file already)
+            result.append(Parameter(name, low, high, unit=unit, scale=scale))
         except ValueError as exc:
             raise ProjectError(f"{root.file}: parameters.{exc}") from None
     return tuple(result)
@@ -178,7 +178,7 @@ def _sampling(root: Table, parameters: tuple[Parameter, ...]) -> Sampling:
     n = t.get("n", "int", what="the number of model instances, an integer >= 1")
     if n < 1:
         raise t.error("n", "the number of model instances, an integer >= 1", n)
-    seed = t.get("seed", "int", 0)
+    seed = t.get("seed", "seed", 0)
     try:
         return (latin_hypercube if method == "lhs" else sobol)(parameters, n, seed=seed)
     except ValueError as exc:

@@ -64,10 +64,12 @@ class Table:
                 )
 
     def get(self, key: str, kind: str, default=_MISSING, *, choices=(), what: str = ""):
-        """The value of ``key`` checked against ``kind``: number, positive, int, str, choice, table, list."""
+        """The value of ``key`` checked against ``kind``: number, positive, int, seed (an integer >= 0, as
+        numpy's generators take), str, choice, table, list."""
         value = self.data.get(key, _MISSING)
         expected = what or {
             "number": "a number", "positive": "a positive number", "int": "an integer", "str": "a string",
+            "seed": "a random seed, an integer >= 0",
             "table": "a table", "list": "a list", "bool": "true or false",
             "choice": "one of " + ", ".join(map(repr, choices)),
         }[kind]
@@ -79,6 +81,7 @@ class Table:
             "number": lambda v: _is_number(v),
             "positive": lambda v: _is_number(v) and v > 0,
             "int": lambda v: isinstance(v, int) and not isinstance(v, bool),
+            "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
             "str": lambda v: isinstance(v, str),
             "choice": lambda v: v in choices,
             "table": lambda v: isinstance(v, dict),

@@ -40,9 +40,12 @@ class FolderLock:
     """Creates ``folder`` and locks it against a second run writing into it.
 
     Where nothing can be written (a read-only copy of a finished run, which
-    can still be read back; ``unwritable`` then says why) or the file system
-    has no locks, the run goes on unlocked: the first has nothing to guard,
-    the second is warned about.
+    can still be read back; ``unwritable`` then says why), the file system
+    has no locks (``flock`` fails, e.g. NFS without a lock daemon) or the
+    ``.lock`` is a regular file we may neither write nor read (another
+    user's), the run goes on unlocked: the first has nothing to guard, the
+    others are warned about. A ``.lock`` that is not a regular file (a
+    directory, FIFO, symbolic link) is refused.
     """
 
     def __init__(self, folder: Path):
@@ -69,13 +72,22 @@ class FolderLock:
                     raise ValueError(f"checkpoint: {folder / LOCK} is a symbolic link, which a run does not "
                                      "follow; remove it (or give another folder)") from None
                 continue
-        if fh is not None and not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-            fh.close()
+        kind = None
+        if fh is not None:
+            kind = os.fstat(fh.fileno()).st_mode
+        else:  # a directory or socket fails both opens: tell it from a file we may not open
+            try:
+                kind = os.lstat(folder / LOCK).st_mode
+            except OSError:  # absent (in a read-only folder)
+                pass
+        if kind is not None and not stat.S_ISREG(kind):
+            if fh is not None:
+                fh.close()
             raise ValueError(f"checkpoint: {folder / LOCK} is not a regular file; remove it (or give another folder)")
         if fh is None or fcntl is None:
             if fh is not None:
                 fh.close()
-            elif self.unwritable is None:
+            elif self.unwritable is None:  # e.g. another user's .lock with no read permission for us
                 warnings.warn(f"checkpoint: cannot open {folder / LOCK} to lock the folder; "
                               "make sure no other run uses it meanwhile", stacklevel=4)
             return

@@ -98,6 +98,7 @@ fn max_threads() -> usize {
 #[pyfunction]
 pub fn set_num_threads(n: &Bound<'_, PyAny>) -> PyResult<()> {
     let max = max_threads();
+    let given = n.str().map(|s| s.to_string()).unwrap_or_default(); // as given, however large
     let n: i64 = match n.extract::<i64>() {
         Ok(v) => v,
         Err(_) if n.is_instance_of::<PyInt>() => i64::MAX, // beyond i64: refused below as too many
@@ -105,7 +106,7 @@ pub fn set_num_threads(n: &Bound<'_, PyAny>) -> PyResult<()> {
     };
     if n < 1 || n as u64 > max as u64 {
         return Err(PyValueError::new_err(format!(
-            "n: expected a number of threads from 1 to {max}, got {n}"
+            "n: expected a number of threads from 1 to {max}, got {given}"
         )));
     }
     let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());
