@@ -48,6 +48,11 @@ def test_bad_prognosis(theta, qoi_model, message):
         predict(qoi_model, theta)
 
 
+def test_complex_values_are_refused_not_cast_to_their_real_part():
+    with pytest.raises(TypeError, match="QoI model's values: expected real numbers, got dtype complex128"):
+        predict(lambda t: t[:, 0] + 1j, THETA)
+
+
 def test_uncertainty_must_be_a_scalar_frozen_distribution():
     with pytest.raises(TypeError, match="scalar frozen"):
         predict(qoi, THETA, uncertainty=stats.norm([0, 1], 1))

@@ -47,6 +47,12 @@ MODEL = textwrap.dedent("""
             raise RuntimeError("no load case")
         return theta[:, 0]
 
+    def complex_out(theta):
+        return fine(theta) + 0.5j
+
+    def q_complex(theta):
+        return theta[:, 0] + 1j
+
     def q_wrong(theta):
         return np.zeros((len(theta), 2))
 """)
@@ -106,6 +112,27 @@ def test_prognosis_shape_is_checked_before_the_run(tmp_path):
     extra = '\n[[prognosis]]\nname = "q"\nfunction = "m:q_wrong"\n'
     with pytest.raises(ProjectError, match=r"prognosis\[0\]\.function = 'm:q_wrong': returned shape \(2, 2\) for 2 "
                                            r"instances, expected \(2,\)"):
+        Project.from_toml(project(tmp_path, "fine", extra)).check()
+
+
+def test_a_complex_model_output_is_refused_not_cast_to_its_real_part(tmp_path):
+    # It ran with exit 0 and the candidates of the real part (a ComplexWarning on stderr only),
+    # where falsify_model refuses complex output.
+    path = project(tmp_path, "complex_out")
+    with pytest.raises(ProjectError, match="returned ndarray of dtype complex128, expected an array of real numbers"):
+        Project.from_toml(path).check()  # in process, before the run
+    proc = run("run", path, "--out", tmp_path / "out", "--no-progress")  # through the prediction store
+    assert proc.returncode == 2
+    assert "model.function = 'm:complex_out': returned ndarray of dtype complex128, expected an array of real " \
+           "numbers" in proc.stderr
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_a_complex_prognosis_is_refused_not_cast_to_its_real_part(tmp_path):
+    # It ran with exit 0 and the real part's range (a ComplexWarning on stderr only).
+    extra = '\n[[prognosis]]\nname = "q"\nfunction = "m:q_complex"\n'
+    with pytest.raises(ProjectError, match=r"function = 'm:q_complex': returned ndarray of dtype complex128, "
+                                           r"expected one real number per instance"):
         Project.from_toml(project(tmp_path, "fine", extra)).check()
 
 

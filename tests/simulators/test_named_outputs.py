@@ -131,3 +131,17 @@ def test_a_bare_array_in_model_sensors_order_is_stored_under_the_right_names(nam
     from conftest import A
     np.testing.assert_array_equal(stored[["s:S1", "s:S2", "s:S3", "s:S4"]].to_numpy(),
                                   theta[:, 0:1] * A[0] + theta[:, 1:2] * A[1])
+
+
+def test_complex_outputs_from_workers_are_refused_not_cast():
+    # What a worker sends back keeps its complex dtype, and the store's columns refuse it
+    # (np.asarray(..., float64) kept the real part with a ComplexWarning only).
+    from edmf_rs.simulators.columns import OutputMismatch, StoreColumns, portable
+
+    out = portable(np.ones((1, 2)) + 0.5j)
+    assert out.dtype == np.complex128
+    with pytest.raises(OutputMismatch, match=r"m: returned ndarray of dtype complex128, expected an array of real "
+                                             r"numbers of shape \(1, 2\)"):
+        StoreColumns(("A", "B"), where="m")(out, 1, first=0)
+    values, absent = StoreColumns(("A", "B"), where="m")(portable([[1, 2]]), 1, first=0)
+    assert values.tolist() == [[1.0, 2.0]] and absent == ()

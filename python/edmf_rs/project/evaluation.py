@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..engine._validate import real_array
 from ..engine.sensors import SensorMapping, SensorMatch, SensorMismatch
 from .errors import call_user_code
 from .precomputed import precomputed_instances
@@ -84,11 +85,12 @@ class CheckedModel:
         self.instances += theta.shape[0]
         try:
             out = self.match(out, theta.shape[0])
-            out = np.asarray(out, dtype=np.float64)
+            out = real_array(out, "model", copy=False)  # complex: refused, not cast to its real part
         except SensorMismatch as exc:
             raise ProjectError(f"{self.where}: {exc}") from None
         except (TypeError, ValueError):
-            raise ProjectError(f"{self.where}: returned {type(out).__name__}, expected an array of numbers "
+            kind = f" of dtype {out.dtype}" if hasattr(out, "dtype") else ""
+            raise ProjectError(f"{self.where}: returned {type(out).__name__}{kind}, expected an array of real numbers "
                                f"of shape ({len(theta)}, {len(self.match.sensors)}) or a DataFrame with a "
                                "column per sensor") from None
         if self.nan == "raise":

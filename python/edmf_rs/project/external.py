@@ -50,7 +50,10 @@ def make_evaluator(project, out, workers, scheduler: str | None = None, retry_fa
     evaluates none."""
     m = project.model
     workers = m.workers if workers is None else workers
-    scheduler = None if store is not None else scheduler or m.scheduler
+    if store is None and scheduler is not None and not str(scheduler).strip():  # `--scheduler ""`
+        raise ProjectError(f"{project.file}: --scheduler {scheduler!r}: empty address; expected a Dask "
+                           "scheduler address such as tcp://host:8786 (or leave --scheduler out to run locally)")
+    scheduler = None if store is not None else scheduler if scheduler is not None else m.scheduler
     if scheduler is not None and project.model_function is None:
         raise ProjectError(f"{project.file}: --scheduler {scheduler}: a Dask scheduler evaluates only a Python "
                            "model (model.function)")

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..engine import intervals
 from ..engine._validate import probability as check_probability
+from ..engine._validate import real_array
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,7 +180,7 @@ def predict(qoi_model: Callable, candidate_parameters, *, uncertainty=None, prob
         raise ValueError(f"{name}: no candidate models (the model class is falsified), so no prognosis")
     if not callable(qoi_model):
         raise TypeError(f"qoi_model: expected a callable, got {type(qoi_model).__name__}")
-    q = np.asarray(qoi_model(theta), dtype=np.float64)
+    q = real_array(qoi_model(theta), f"{name}: the QoI model's values", copy=False)  # complex: refused
     if q.ndim == 2 and q.shape[1] == 1:
         q = q[:, 0]
     if q.shape != (theta.shape[0],):

@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..engine._validate import real_array
 from .candidates import mapped
 from .errors import call_user_code
 from .prognosis import Prognosis, over_range, predict
@@ -30,10 +31,11 @@ def call_prognosis(project, spec: PrognosisSpec, func: Callable, theta: np.ndarr
     first = 0 if index is None else int(index[0])
     q = call_user_code(lambda t: func(t, **spec.options), theta, what=where, unit=what,
                        where=f"{theta.shape[0]:,} {what}s", first=first, describe=lambda row: describe(project, row))
-    try:
-        arr = np.asarray(q, dtype=np.float64)
+    try:  # complex values are refused, not cast to their real part
+        arr = real_array(q, "q", copy=False)
     except (TypeError, ValueError):
-        raise ProjectError(f"{where}: returned {type(q).__name__}, expected one number per {what}") from None
+        shown = f"{type(q).__name__} of dtype {q.dtype}" if hasattr(q, "dtype") else type(q).__name__
+        raise ProjectError(f"{where}: returned {shown}, expected one real number per {what}") from None
     if arr.shape not in ((theta.shape[0],), (theta.shape[0], 1)):
         raise ProjectError(f"{where}: returned shape {arr.shape} for {theta.shape[0]} {what}s, expected "
                            f"({theta.shape[0]},): one value per {what}")

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 from ..simulators.store import SCHEMA, PredictionStore, store_key
+from ..stream.atomic import write_text
 from .command import MARKER, check_out, default_out
 from .external import project_fingerprint
 from .run import Project
@@ -200,10 +201,34 @@ def falsify_cli(store: str | Path, project_path: str | Path, out: str | Path | N
           "(no model evaluation)", file=sys.stderr)
     identification = project.run(progress=progress, out=out_dir, store=folder)
     identification.write(out_dir)
+    stale = (identification.evaluation or {}).get("failures_not_retried", 0)
+    note = _not_retried_note(stale, project)
+    if note:
+        _add_to_summary(out_dir / "summary.json", {"failures_not_retried": stale, "failures_not_retried_note": note})
     print(identification.summary())
+    if note:
+        print(note)
     print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "
           f"in {time.perf_counter() - started:.1f} s")
     return 0
+
+
+def _not_retried_note(stale: int, project: Project) -> str:
+    """What to say of stored failures a run would retry (timed out under a shorter timeout), if any."""
+    if not stale:
+        return ""
+    timeout = getattr(getattr(project.command, "spec", None), "timeout", None)
+    longer = f" than model.timeout = {timeout:g} s of {project.file.name}" if timeout is not None else ""
+    return (f"{stale:,} failed instance{'s' if stale != 1 else ''} timed out under a shorter timeout{longer}: "
+            f"reported as failed, as stored (falsify evaluates no model); `edmf-rs run {project.file.name} "
+            "--out` on the store's folder runs them again")
+
+
+def _add_to_summary(path: Path, extra: dict) -> None:
+    """summary.json with ``extra`` keys added (rewritten atomically)."""
+    data = json.loads(path.read_text(encoding="utf-8"))
+    data.update(extra)
+    write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 __all__ = ["falsify_cli", "find_store"]

@@ -35,6 +35,43 @@ class SchedulerUnreachable(OSError):
     """
 
 
+def check_address(address) -> None:
+    """Refuses an address no Dask scheduler can have (empty, no port, bad IPv6 brackets, unknown
+    scheme, an in-process address with no scheduler in this process) before any connection is tried.
+
+    Raises
+    ------
+    SchedulerUnreachable
+        Naming the address and what is wrong with it.
+
+    Examples
+    --------
+    >>> check_address("tcp://10.0.0.5:8786")
+    >>> check_address("not-an-address")
+    Traceback (most recent call last):
+    ...
+    edmf_rs.simulators.cluster.SchedulerUnreachable: not a Dask scheduler address: 'not-an-address' (missing port number in address 'not-an-address'); expected e.g. tcp://host:8786
+    """
+    example = "expected e.g. tcp://host:8786"
+    if not isinstance(address, str) or not address.strip():
+        raise SchedulerUnreachable(f"not a Dask scheduler address: {address!r} (empty); {example}")
+    try:
+        from distributed.comm.addressing import get_address_host_port, parse_address
+    except ImportError:
+        return  # refused with the install hint by ClusterPool
+    try:
+        scheme, location = parse_address(address)
+        if scheme == "inproc":  # a scheduler in this very process (LocalCluster(processes=False))
+            from distributed.comm.inproc import global_manager
+
+            if global_manager.get_listener_for(location) is None:
+                raise ValueError("no scheduler of this process listens there")
+        else:
+            get_address_host_port(address)
+    except (ValueError, TypeError) as exc:
+        raise SchedulerUnreachable(f"not a Dask scheduler address: {address!r} ({exc}); {example}") from None
+
+
 class ClusterPool:
     """``function(theta, **options)`` evaluated on the workers of a Dask scheduler.
 
@@ -75,6 +112,7 @@ class ClusterPool:
             raise SchedulerUnreachable(
                 f"a Dask scheduler ({address}) needs the distributed package: install edmf_rs[dask] "
                 "(pip install -e '.[dask]' in the checkout)") from None
+        check_address(address)  # before a Client: a half-made one blocks ~10 s and warns when collected
         try:
             self.client = Client(address, timeout=timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:

@@ -17,10 +17,11 @@ gives the same columns.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..engine._validate import real_array
 from ..engine.sensors import SensorMapping, SensorMatch, SensorMismatch, named_output
 
 
@@ -62,7 +63,10 @@ def portable(out):
     {'S': [1.0]}
     """
     names, out = named_output(out)
-    return out if names is not None else np.asarray(out, dtype=np.float64)
+    if names is not None:
+        return out
+    arr = np.asarray(out)
+    return arr if arr.dtype.kind == "c" else np.asarray(arr, dtype=np.float64)  # complex: refused by the caller
 
 
 class StoreColumns:
@@ -138,13 +142,14 @@ class StoreColumns:
                 self._plans[given] = (SensorMatch(present, self.positional, self.source), index,
                                       tuple(s for s in self.sensors if s not in given))
             match, index, absent = self._plans[given]
-            values = np.asarray(match(out, n_rows), dtype=np.float64)
+            values = real_array(match(out, n_rows), "model", copy=False)  # complex: refused, not cast
         except SensorMismatch as exc:
             raise OutputMismatch(f"{self.where}: {exc} (instances {first}..{first + n_rows - 1})") from None
         except (TypeError, ValueError):
-            raise OutputMismatch(f"{self.where}: returned {type(out).__name__}, expected an array of numbers of "
-                                 f"shape ({n_rows}, {len(self.positional)}) or a DataFrame with a column per "
-                                 f"sensor (instances {first}..{first + n_rows - 1})") from None
+            kind = f" of dtype {out.dtype}" if hasattr(out, "dtype") else ""
+            raise OutputMismatch(f"{self.where}: returned {type(out).__name__}{kind}, expected an array of real "
+                                 f"numbers of shape ({n_rows}, {len(self.positional)}) or a DataFrame with a column "
+                                 f"per sensor (instances {first}..{first + n_rows - 1})") from None
         if not absent:
             return (values if values.shape[1] == len(self.sensors) and index == list(range(len(index)))
                     else _spread(values, index, n_rows, len(self.sensors))), ()
@@ -159,6 +164,46 @@ class StoreColumns:
                 f"{', '.join(missing)} (instances {first}..{first + n_rows - 1} in the prediction store {store}, "
                 "evaluated while it was excluded); the measurements have "
                 f"{', '.join(self.required)}")
+
+
+class NamedColumns(Mapping):
+    """An (n, m) array of predictions with the sensor name of each column: what the evaluator of
+    an external program returns. Its results are read by sensor name (``results.csv`` rows
+    ``sensor,value``), so the identification matches them to the measurements by name (a
+    mapping of sensor name to column) and reports so; ``np.asarray`` gives the array.
+
+    Parameters
+    ----------
+    values : (n, m) array
+    names : sequence of str
+        The sensor of each column.
+
+    Examples
+    --------
+    >>> cols = NamedColumns(np.array([[1.0, 2.0]]), ("A", "B"))
+    >>> list(cols), cols["B"].tolist(), np.asarray(cols).tolist()
+    (['A', 'B'], [2.0], [[1.0, 2.0]])
+    """
+
+    def __init__(self, values: np.ndarray, names: Sequence[str]):
+        self.values, self.names = np.asarray(values, dtype=np.float64), tuple(names)
+        self._index = {name: j for j, name in enumerate(self.names)}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.values[:, self._index[name]]
+
+    def __iter__(self):
+        return iter(self.names)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self.values.shape
+
+    def __array__(self, dtype=None, copy=None):
+        return self.values if dtype is None else self.values.astype(dtype, copy=False)
 
 
 def _spread(values: np.ndarray, index: list[int], n_rows: int, width: int) -> np.ndarray:

@@ -23,7 +23,11 @@ from pathlib import Path
 
 from . import parsers
 from .failures import Failure
-from .template import check_placeholders, render
+from .template import check_names, check_placeholders, render
+
+#: Files named by the command line up to this size are hashed into the fingerprint;
+#: larger ones are recorded by size and modification time (hashing them would stall start-up).
+HASH_LIMIT = 256 * 2**20
 
 
 @dataclass(frozen=True)
@@ -97,6 +101,10 @@ class CommandModel:
         self.spec, self.parameters, self.sensors = spec, tuple(parameters), tuple(sensors)
         if not spec.command:
             raise ValueError("command: expected a program and its arguments, got an empty list")
+        check_names(self.parameters)
+        for name in spec.files:
+            _check_relative("files", name)
+        _check_relative("output", spec.output)
         for i, arg in enumerate(spec.command):
             check_placeholders(arg, self.parameters, f"command[{i}] ({arg!r})")
         program = spec.command[0]
@@ -119,6 +127,7 @@ class CommandModel:
             check_placeholders(text, self.parameters, str(file))
             self.templates[name] = text
         self.parser = parsers.resolve(spec.parser, spec.output, spec.path)
+        self._program_files: dict | None = None  # sha256 of the files the command names (fingerprint)
         self._cleaner = None  # removes successful work folders off the runs' critical path
         self._running: set[subprocess.Popen] = set()
         self._lock = threading.Lock()
@@ -137,13 +146,37 @@ class CommandModel:
             self._cleaner = None
 
     def fingerprint(self) -> dict:
-        """What decides the predictions: command, template contents, output, parser (and its module's source)."""
+        """What decides the predictions: the command line, the program's path, the contents of
+        every file the command line names (the program itself, resolved on PATH like a run does,
+        and arguments naming an existing file, e.g. the script after an interpreter, relative to
+        the project folder: sha256, or size and modification time above :data:`HASH_LIMIT`),
+        template contents, output, parser (and its module's source)."""
         digest = hashlib.sha256()
         for name, text in sorted(self.templates.items()):
             digest.update(name.encode() + b"\0" + text.encode() + b"\0")
+        if self._program_files is None:  # once per model: the files are read at start-up
+            self._program_files = self._command_files()
         return {"kind": "command", "command": list(self.spec.command), "program": self.program,
+                "program_files": self._program_files,
                 "templates": digest.hexdigest(), "output": self.spec.output, "parser": self.spec.parser,
                 "parser_source": _source_digest(self.parser) if self.spec.parser else None}
+
+    def _command_files(self) -> dict[str, str]:
+        """``{argument: digest}`` for the program and each argument that names a regular file."""
+        out = {}
+        for i, arg in enumerate(self.spec.command):
+            if i == 0:
+                path = Path(self.program)
+            elif not arg or "{" in arg:  # empty, or rendered per instance (a template's contents count)
+                continue
+            else:
+                path = Path(arg) if os.path.isabs(arg) else self.spec.path / arg
+            key = arg if i else self.spec.command[0]
+            if key not in out:
+                digest = _file_digest(path)
+                if digest is not None:
+                    out[key] = digest
+        return out
 
     def run(self, index: int, theta, root: Path) -> list[float] | Failure:
         """Runs instance ``index`` with parameter row ``theta`` in a new folder under ``root``."""
@@ -209,6 +242,33 @@ class CommandModel:
             return f"killed by signal {name}"
         if code != 0:
             return f"exit code {code}"
+        return None
+
+
+def _check_relative(key: str, name: str) -> None:
+    """Refuses a ``files`` or ``output`` path that is not inside each run's work folder."""
+    what = ("a template's path relative to the project folder (it is read from there and written to the "
+            "same relative path in each run's work folder)" if key == "files" else
+            "the output file's path relative to each run's work folder (where the program runs)")
+    norm = os.path.normpath(name) if name else ""
+    if not name or os.path.isabs(name) or norm in (".", "..") or norm.startswith(".." + os.sep):
+        raise ValueError(f"{key}: expected {what}, without '..' leaving it, got {name!r}")
+
+
+def _file_digest(path: Path) -> str | None:
+    """``sha256:<hex>`` of a regular file (``size:<bytes>,mtime:<ns>`` above :data:`HASH_LIMIT`), else None."""
+    try:
+        if not path.is_file():
+            return None
+        st = path.stat()
+        if st.st_size > HASH_LIMIT:
+            return f"size:{st.st_size},mtime:{st.st_mtime_ns}"
+        digest = hashlib.sha256()
+        with open(path, "rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(chunk)
+        return "sha256:" + digest.hexdigest()
+    except OSError:
         return None
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .columns import StoreColumns
+from .columns import NamedColumns, StoreColumns
 from .command import CommandModel, _source_digest
 from .failures import Failure, FailurePolicy, SimulationError, write_failures
 from .pool import FunctionPool, ordered
@@ -75,7 +75,10 @@ class Evaluator:
     store_root
         The store's folder (default ``out/store``), e.g. another run's store.
     reuse_only
-        Evaluate nothing: every instance must be in the store (``edmf-rs falsify``).
+        Evaluate nothing and write nothing into the store: every instance
+        must be in it (``edmf-rs falsify``). A stored failure a run would
+        retry (timed out under a shorter timeout) stays failed, counted in
+        ``stats()["failures_not_retried"]``.
 
     Examples
     --------
@@ -98,7 +101,7 @@ class Evaluator:
         self.command, self.function, self.options = command, function, dict(options or {})
         self.workers, self.policy = workers, policy
         self.out = Path(out) if out is not None else None
-        self.offset = self.model_evaluations = self.reused_evaluations = 0
+        self.offset = self.model_evaluations = self.reused_evaluations = self.failures_not_retried = 0
         self.failures: list[Failure] = []
         self._first_failed = 0
         root = Path(store_root) if store_root is not None else self.out / "store" if self.out is not None else None
@@ -108,7 +111,9 @@ class Evaluator:
         self.reuse_only = reuse_only
         self._temp = None
         if command is not None:
-            if self.out is not None:
+            if reuse_only:  # runs nothing: no work folders
+                self.work_root = None
+            elif self.out is not None:
                 self.work_root = self.out / "work"
                 self.work_root.mkdir(parents=True, exist_ok=True)
             else:
@@ -139,7 +144,10 @@ class Evaluator:
         if k < n:
             parts.append(self._evaluate(first + k, theta[k:]))
         self.offset += n
-        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+        out = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        # An external program's results are read by sensor name (results.csv rows sensor,value):
+        # handed on with their names, so they are matched (and reported) by name.
+        return NamedColumns(out, self.sensors) if self.command is not None else out
 
     def _reuse(self, first: int, theta: np.ndarray) -> np.ndarray:
         n = theta.shape[0]
@@ -152,11 +160,20 @@ class Evaluator:
             if self.columns.mapping is None and (saved := self.store.outputs()) is not False:
                 self.columns.replay(saved)
         again = self._to_retry(stored)
+        if self.reuse_only:  # evaluates nothing: a failure a run would retry stays failed, as stored
+            self.failures_not_retried += again.size
+            again = again[:0]
         self.reused_evaluations += n - again.size
         for i in np.flatnonzero(stored.failed):
             if i not in again:
-                self._count(Failure(first + int(i), tuple(theta[i]), stored.reason[i], stored.stderr[i],
+                self._count(Failure(first + int(i), _values(theta[i]), stored.reason[i], stored.stderr[i],
                                     stored.work[i], _finite(stored.timeout[i])))
+                # Reused failures count against stop_after_failures and max_failure_rate as new ones do.
+                why = self.policy.check(first + int(i) + 1, self._first_failed, len(self.failures),
+                                        self.n_planned)
+                if why is not None:
+                    self._write_failures()
+                    raise SimulationError(self._stop_message(why))
         if not again.size:
             return stored.predictions
         out = stored.predictions.copy()
@@ -263,10 +280,14 @@ class Evaluator:
             write_failures(self.out / "failures.csv", self.failures, self.parameters)
 
     def stats(self) -> dict:
-        """Counts for summary.json: instances evaluated now, reused from the store, failed."""
-        return {"model_evaluations": self.model_evaluations, "reused_evaluations": self.reused_evaluations,
-                "failed_instances": len(self.failures),
-                "prediction_store": str(self.store.folder) if self.store is not None else None}
+        """Counts for summary.json: instances evaluated now, reused from the store, failed (and, reading
+        the store only, the failures a run would have retried)."""
+        stats = {"model_evaluations": self.model_evaluations, "reused_evaluations": self.reused_evaluations,
+                 "failed_instances": len(self.failures),
+                 "prediction_store": str(self.store.folder) if self.store is not None else None}
+        if self.reuse_only:
+            stats["failures_not_retried"] = self.failures_not_retried
+        return stats
 
     def close(self) -> None:
         if self.pool is not None:
@@ -276,6 +297,11 @@ class Evaluator:
             self._write_failures()
         if self._temp is not None and not any(self._temp.iterdir()):
             shutil.rmtree(self._temp, ignore_errors=True)
+
+
+def _values(row) -> tuple[float, ...]:
+    """A parameter row as plain floats (failures.csv and messages show ``60000.0``, not ``np.float64(60000.0)``)."""
+    return tuple(float(v) for v in row)
 
 
 def _finite(value: float) -> float | None:

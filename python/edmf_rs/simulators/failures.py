@@ -69,7 +69,7 @@ class Failure:
     timeout: float | None = None
 
     def describe(self, names) -> str:
-        values = ", ".join(f"{n}={v!r}" for n, v in zip(names, self.parameters))
+        values = ", ".join(f"{n}={_number(v)}" for n, v in zip(names, self.parameters))
         text = f"instance {self.instance} ({values}): {self.reason}"
         if self.work:
             text += f"; work folder {self.work}"
@@ -120,8 +120,17 @@ def failures_csv(failures, names) -> str:
     writer.writerow(["instance", *names, "reason", "stderr", "work_folder"])
     for f in sorted(failures, key=lambda f: f.instance):
         tail = "\n".join(f.stderr.splitlines()[-STDERR_LINES:])
-        writer.writerow([f.instance, *map(repr, f.parameters), f.reason, tail, f.work])
+        writer.writerow([f.instance, *map(_number, f.parameters), f.reason, tail, f.work])
     return buf.getvalue()
+
+
+def _number(value) -> str:
+    """A parameter as failures.csv and messages show it: ``60000.0`` (repr of a Python float, exact),
+    never ``np.float64(60000.0)``."""
+    try:
+        return repr(float(value))
+    except (TypeError, ValueError):
+        return str(value)
 
 
 def write_failures(path, failures, names) -> None:

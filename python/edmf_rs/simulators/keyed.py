@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .columns import NamedColumns
 from .command import _source_digest
 from .evaluator import Evaluator
 from .failures import Failure
@@ -152,11 +153,11 @@ class KeyedEvaluator(Evaluator):
             predictions, failed, reason, stderr, work = self.store.row(int(stored[i]))
             out[i] = predictions
             if failed:  # a failed run stays failed: counted again, not rerun
-                self._count(Failure(int(stored[i]), tuple(theta[i]), reason, stderr, work))
+                self._count(Failure(int(stored[i]), tuple(float(v) for v in theta[i]), reason, stderr, work))
         self.reused_evaluations += int((stored >= 0).sum())
         new = np.flatnonzero(stored < 0)
         if new.size:
             first = self.store.next_instance() if self.store is not None else self.offset
             out[new] = self._evaluate(first, theta[new])
         self.offset += n
-        return out
+        return NamedColumns(out, self.sensors) if self.command is not None else out  # matched by name
