@@ -124,10 +124,11 @@ class KeyedEvaluator(Evaluator):
     --------
     >>> import numpy as np, tempfile
     >>> out = tempfile.mkdtemp()
-    >>> ev = KeyedEvaluator(("a",), ("S",), 4, function=lambda t: 2 * t, ref="", path=".", out=out)
+    >>> double = lambda t: 2 * t  # one function: the store is keyed by the model's code
+    >>> ev = KeyedEvaluator(("a",), ("S",), 4, function=double, ref="", path=".", out=out)
     >>> ev(np.array([[1.0], [2.0]])).ravel().tolist()
     [2.0, 4.0]
-    >>> ev = KeyedEvaluator(("a",), ("S",), 4, function=lambda t: 2 * t, ref="", path=".", out=out)
+    >>> ev = KeyedEvaluator(("a",), ("S",), 4, function=double, ref="", path=".", out=out)
     >>> ev(np.array([[3.0], [1.0]])).ravel().tolist(), ev.model_evaluations, ev.reused_evaluations
     ([6.0, 2.0], 1, 1)
     """
