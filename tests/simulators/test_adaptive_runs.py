@@ -146,3 +146,16 @@ def test_lookup_names_a_wrong_shape(tmp_path, theta):
     store = KeyedPredictionStore(tmp_path, {"model": "m"}, ("a", "b"), SENSOR_NAMES)
     with pytest.raises(ValueError, match=r"theta: expected an \(n, 2\) array"):
         store.lookup(theta)
+
+
+def test_failures_reused_from_the_store_count_against_the_failure_policy(folder, tmp_path, capsys):
+    # They were counted but never checked: a rerun into the store exited 0 where a fresh folder stops.
+    out = tmp_path / "out"
+    first = run(adaptive_project(folder, command_model("fail_high_a"), sd=1.0), out)
+    assert first["failed_instances"] > 3
+    limited = adaptive_project(folder, command_model("fail_high_a", max_failure_rate=0.05), sd=1.0)
+    assert cli.main(["run", str(limited), "--out", str(tmp_path / "fresh"), "--no-progress"]) == 1
+    assert cli.main(["run", str(limited), "--out", str(out), "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("more than max_failure_rate = 0.05 allows") == 2
+    assert json.loads((out / "summary.json").read_text()) == first  # the stopped rerun wrote no summary
