@@ -166,14 +166,8 @@ class Evaluator:
         self.reused_evaluations += n - again.size
         for i in np.flatnonzero(stored.failed):
             if i not in again:
-                self._count(Failure(first + int(i), _values(theta[i]), stored.reason[i], stored.stderr[i],
-                                    stored.work[i], _finite(stored.timeout[i])))
-                # Reused failures count against stop_after_failures and max_failure_rate as new ones do.
-                why = self.policy.check(first + int(i) + 1, self._first_failed, len(self.failures),
-                                        self.n_planned)
-                if why is not None:
-                    self._write_failures()
-                    raise SimulationError(self._stop_message(why))
+                self._count_reused(Failure(first + int(i), _values(theta[i]), stored.reason[i], stored.stderr[i],
+                                           stored.work[i], _finite(stored.timeout[i])))
         if not again.size:
             return stored.predictions
         out = stored.predictions.copy()
@@ -268,6 +262,15 @@ class Evaluator:
         self.failures.append(failure)
         if failure.instance < self.policy.first:
             self._first_failed += 1
+
+    def _count_reused(self, failure: Failure) -> None:
+        """Counts a failure read from the store, against stop_after_failures and max_failure_rate as a
+        new one is (else a rerun into the store would pass where a fresh folder stops)."""
+        self._count(failure)
+        why = self.policy.check(failure.instance + 1, self._first_failed, len(self.failures), self.n_planned)
+        if why is not None:
+            self._write_failures()
+            raise SimulationError(self._stop_message(why))
 
     def _stop_message(self, why: str) -> str:
         shown = self.failures[: self.policy.first]

@@ -24,7 +24,7 @@ import numpy as np
 from .columns import NamedColumns
 from .command import _source_digest
 from .evaluator import Evaluator
-from .failures import Failure, SimulationError
+from .failures import Failure
 from .store import PredictionStore
 
 #: Format of a store whose rows are found by their parameters.
@@ -154,11 +154,7 @@ class KeyedEvaluator(Evaluator):
             predictions, failed, reason, stderr, work = self.store.row(int(stored[i]))
             out[i] = predictions
             if failed:  # a failed run stays failed: counted again (and against the policy), not rerun
-                self._count(Failure(int(stored[i]), tuple(float(v) for v in theta[i]), reason, stderr, work))
-                why = self.policy.check(int(stored[i]) + 1, self._first_failed, len(self.failures), self.n_planned)
-                if why is not None:
-                    self._write_failures()
-                    raise SimulationError(self._stop_message(why))
+                self._count_reused(Failure(int(stored[i]), tuple(float(v) for v in theta[i]), reason, stderr, work))
         self.reused_evaluations += int((stored >= 0).sum())
         new = np.flatnonzero(stored < 0)
         if new.size:
