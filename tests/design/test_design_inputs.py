@@ -98,7 +98,7 @@ def test_prediction_files_that_cannot_be_read_are_named(tiny_project):
     (folder / "cols.txt").write_bytes(b"D0.5-LC1\nD1-LC\xe9\n")
     _edit(tiny_project, 'predictions = "g.npy"', 'predictions = "g.npy"\ncolumns = "cols.txt"')
     with pytest.raises(ProjectError, match=re.escape(f"{tiny_project}: design.columns: {folder / 'cols.txt'}: "
-                                                     "expected UTF-8 text, got byte 0xe9")):
+                                                     "line 2: expected UTF-8 text, got byte 0xe9")):
         read_design_project(tiny_project)
 
 

@@ -15,8 +15,9 @@ import io
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..project.inputs import cell_number, regular_file
+from ..project.inputs import cell_number
 from ..project.schema import ProjectError
+from ._precomputed import read_text
 
 COLUMNS = ("name", "type", "location", "cost", "load_case", "unit")
 COMMA_HINT = "; a decimal comma (as in 2,5)? write 2.5"
@@ -32,19 +33,6 @@ class Candidate:
     cost: float
     load_case: str = ""
     unit: str = ""
-
-
-def _text(file: Path, label: str, key: str) -> str:
-    try:
-        data = file.read_bytes()
-    except OSError as exc:
-        raise ProjectError(f"{label}: {key}: cannot read '{file}': {exc.strerror}") from None
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise ProjectError(f"{label}: {key}: {file}: line {line}: expected UTF-8 text, got byte "
-                           f"0x{data[exc.start]:02x}; save the file as UTF-8") from None
 
 
 def _header(row: list[str], file: Path) -> list[str]:
@@ -73,8 +61,7 @@ def read_candidates(file: Path, label: str, key: str = "design.candidates") -> t
         Naming the file and line (and the project file and key for a file
         that cannot be read) of the first field that cannot be used.
     """
-    regular_file(file, label, key)
-    reader = csv.reader(io.StringIO(_text(file, label, key), newline=""))
+    reader = csv.reader(io.StringIO(read_text(file, label, key), newline=""))
     first = next(reader, None)
     if not first:
         raise ProjectError(f"{file}: expected a header (name,type,location,cost) and at least one location")

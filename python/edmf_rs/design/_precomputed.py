@@ -27,23 +27,21 @@ def files(predictions: Path | None, columns) -> tuple[Path, ...]:
     return (predictions, predictions.parent / columns) if isinstance(columns, str) else (predictions,)
 
 
-def _decode(data: bytes, file: Path, label: str, key: str) -> str:
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ProjectError(f"{label}: {key}: {file}: expected UTF-8 text, got byte 0x{data[exc.start]:02x} "
-                           f"at byte {exc.start}; save the file as UTF-8") from None
-
-
-def _read(file: Path, label: str, key: str, first_line: bool = False) -> str:
-    """The text of a regular file (its first line only with ``first_line``: a CSV's numbers may be large)."""
+def read_text(file: Path, label: str, key: str, first_line: bool = False) -> str:
+    """The UTF-8 text of a regular file, ``key`` of the project file ``label`` (its first line only
+    with ``first_line``: a CSV's numbers may be large); a byte that is not UTF-8 is named with its line."""
     regular_file(file, label, key)
     try:
         with open(file, "rb") as fh:
             data = fh.readline() if first_line else fh.read()
     except OSError as exc:
         raise ProjectError(f"{label}: {key}: cannot read '{file}': {exc.strerror}") from None
-    return _decode(data, file, label, key)
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise ProjectError(f"{label}: {key}: {file}: line {line}: expected UTF-8 text, got byte "
+                           f"0x{data[exc.start]:02x}; save the file as UTF-8") from None
 
 
 def column_names(file: Path, columns, label: str) -> tuple[str, ...] | None:
@@ -55,14 +53,14 @@ def column_names(file: Path, columns, label: str) -> tuple[str, ...] | None:
     if suffix == ".csv":
         if columns is not None:
             raise ProjectError(f"{label}: design.columns: expected no columns for a CSV file (its header names them)")
-        header = next(csv.reader([_read(file, label, "design.predictions", first_line=True)]), None)
+        header = next(csv.reader([read_text(file, label, "design.predictions", first_line=True)]), None)
         if not header:
             raise ProjectError(f"{file}: expected a header of candidate location names")
         return tuple(h.strip() for h in header)
     if columns is None:
         return None
     if isinstance(columns, str):
-        text = _read(file.parent / columns, label, "design.columns")
+        text = read_text(file.parent / columns, label, "design.columns")
         return tuple(line.strip() for line in text.splitlines() if line.strip())
     if isinstance(columns, list) and all(isinstance(c, str) for c in columns):
         return tuple(columns)

@@ -12,10 +12,8 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 from ..project.command import MARKER, check_out
-from ..project.schema import ProjectError
 from ..stream.atomic import write_text
 from . import report
 from .entropy import interval_widths
@@ -63,16 +61,7 @@ def check_design_out(out: Path, project: DesignProject, force: bool) -> None:
         ``out`` is a file; a non-empty folder that holds no earlier design of
         this project (without ``force``); or an output would replace an input.
     """
-    inputs = {f.resolve() for f in project.inputs}
-    for name in OUTPUT_FILES:
-        target = (out / name).resolve()
-        if target in inputs:
-            raise ProjectError(f"--out {out}: the design would overwrite {target}, an input of {project.file.name}; "
-                               "choose another output folder")
-    # The run's check with the design's own outputs checked above; the marker it
-    # recognises is the one run_design writes.
-    check_out(out, SimpleNamespace(file=project.file, name=project.name, inputs=()),
-              force or _earlier_design(out, project))
+    check_out(out, project, force or _earlier_design(out, project), outputs=OUTPUT_FILES, what="design")
 
 
 def run_design(project_path, out=None, *, force: bool = False) -> dict:

@@ -42,7 +42,7 @@ def _previous_run_of(out: Path, project: Project) -> bool:
         and summary.get("project", {}).get("name") == project.name
 
 
-def check_out(out: Path, project: Project, force: bool) -> None:
+def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, MARKER), what: str = "run") -> None:
     """Refuses an output folder the run must not write into (see the module docstring).
 
     Raises
@@ -55,13 +55,13 @@ def check_out(out: Path, project: Project, force: bool) -> None:
     if out.exists() and not out.is_dir():
         raise ProjectError(f"--out {out}: expected a folder, it is a file")
     inputs = [f.resolve() for f in project.inputs]
-    for name in (*OUTPUT_FILES, MARKER):
+    for name in outputs:
         target = (out / name).resolve()
         if target in inputs:
-            raise ProjectError(f"--out {out}: the run would overwrite {target}, an input of {project.file.name}; "
+            raise ProjectError(f"--out {out}: the {what} would overwrite {target}, an input of {project.file.name}; "
                                "choose another output folder")
     if out.is_dir() and any(out.iterdir()) and not force and not _previous_run_of(out, project):
-        raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier run of {project.file.name}; "
+        raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier {what} of {project.file.name}; "
                            "choose an empty or new folder, or pass --force to write into it")
 
 
