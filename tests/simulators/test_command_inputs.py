@@ -191,3 +191,25 @@ def test_fingerprint_records_size_and_mtime_of_a_file_over_the_hash_limit(folder
     assert solver not in opened  # not read: too large
     os.utime(solver, ns=(solver.stat().st_atime_ns, solver.stat().st_mtime_ns + 10**9))
     assert _model(folder, [sys.executable, str(solver), "ok", "csv"]).fingerprint() != first
+
+
+# --- a script beside the project file, named relatively -----------------------------------------
+
+def test_a_script_beside_the_project_file_is_found_by_every_run(folder, tmp_path):
+    """Runs start in their own work folder; `python solver.py` names the script beside the project
+    file (as its fingerprint does), which is passed by its absolute path and never copied."""
+    absolute = write_project(folder, command_model(), "absolute.toml")
+    assert run(absolute, tmp_path / "absolute") == 0
+    relative = write_project(folder, command_model().replace("{solver}", "solver.py"), "relative.toml")
+    assert 'command = ["' + sys.executable + '", "solver.py", "ok", "csv"]' in relative.read_text()
+    assert run(relative, tmp_path / "relative") == 0
+    assert candidates(tmp_path / "relative").equals(candidates(tmp_path / "absolute"))
+    assert summary(tmp_path / "relative")["model_evaluations"] == 64
+
+
+def test_only_arguments_naming_a_project_file_are_rewritten(folder):
+    (folder / "results.csv").write_text("sensor,value\n")  # the output's name: passed as written
+    spec = CommandSpec(("cp", "deck.txt", "results.csv", "solver.py", "{a}", "absent.txt", "-i", "solver.py"),
+                       ("deck.txt",), path=folder)
+    model = CommandModel(spec, ("a", "b"), ("S",))
+    assert model.project_files == {3: str(folder.resolve() / "solver.py"), 7: str(folder.resolve() / "solver.py")}

@@ -40,7 +40,9 @@ class CommandSpec:
         Program and arguments (placeholders allowed).
     files : tuple of str
         Templates, relative to ``path``, copied into each run's work folder
-        with ``{NAME}`` replaced by the instance's parameters.
+        with ``{NAME}`` replaced by the instance's parameters. Any other argument
+        naming a file in ``path`` (a script after an interpreter) is passed as
+        that file's absolute path, since runs start in their work folders.
     output, parser : str, str or None
         The file the program writes, and its parser (``module:function``, or
         None for .csv/.json).
@@ -127,6 +129,7 @@ class CommandModel:
             check_placeholders(text, self.parameters, str(file))
             self.templates[name] = text
         self.parser = parsers.resolve(spec.parser, spec.output, spec.path)
+        self.project_files = _project_file_arguments(spec)
         self._program_files: dict | None = None  # sha256 of the files the command names (fingerprint)
         self._cleaner = None  # removes successful work folders off the runs' critical path
         self._running: set[subprocess.Popen] = set()
@@ -182,7 +185,8 @@ class CommandModel:
         """Runs instance ``index`` with parameter row ``theta`` in a new folder under ``root``."""
         values = dict(zip(self.parameters, (float(v) for v in theta)))
         params = tuple(values.values())
-        command = [self.program, *(render(a, values) for a in self.spec.command[1:])]
+        command = [self.program, *(self.project_files.get(i) or render(a, values)
+                                   for i, a in enumerate(self.spec.command[1:], 1))]
         work = Path(tempfile.mkdtemp(prefix=f"instance-{index:09d}-", dir=root))
         try:
             for name, text in self.templates.items():
@@ -243,6 +247,16 @@ class CommandModel:
         if code != 0:
             return f"exit code {code}"
         return None
+
+
+def _project_file_arguments(spec: CommandSpec) -> dict[int, str]:
+    """``{position: absolute path}`` of the arguments naming a file beside the project file (a script
+    after an interpreter), passed so, since each run starts in its own work folder. Templates (copied
+    into it), the output file and arguments with a placeholder are passed as written."""
+    written = {os.path.normpath(name) for name in (*spec.files, spec.output)}
+    return {i: str((spec.path / arg).resolve()) for i, arg in enumerate(spec.command) if i
+            and arg and "{" not in arg and not os.path.isabs(arg) and os.path.normpath(arg) not in written
+            and (spec.path / arg).is_file()}
 
 
 def _check_relative(key: str, name: str) -> None:
