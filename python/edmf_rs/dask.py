@@ -45,7 +45,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     merged exactly by `edmf_rs.concatenate`, so the result equals the
     in-process call whatever the chunking. Columns are gathered into one
     chunk (rows keep their chunking, unless the columns were split too: then
-    rows are rechunked to Dask's default size).
+    rows are rechunked to Dask's default size, except rows of unknown size,
+    e.g. after boolean indexing, which keep theirs).
 
     Parameters
     ----------
@@ -99,13 +100,15 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     keep_violations = flag(keep_violations, "keep_violations")
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
+    unknown_rows = any(np.isnan(c) for c in arr.chunks[0])
     if len(arr.chunks[1]) > 1:
-        arr = arr.rechunk({0: "auto", 1: -1})
+        # Rows of unknown size (e.g. after boolean indexing) cannot be rechunked: keep them.
+        arr = arr.rechunk({1: -1} if unknown_rows else {0: "auto", 1: -1})
     task = dask.delayed(_falsify_block, pure=True)
     low, high = thresholds.low, thresholds.high
     parts = [task(block, y, low, high, diagnostics, keep_violations)
              for block in arr.to_delayed().ravel()]
-    rows = None if any(np.isnan(c) for c in arr.chunks[0]) else arr.chunks[0]
+    rows = None if unknown_rows else arr.chunks[0]
     return _merged(_compute(parts, client, progress, rows), y, thresholds)
 
 

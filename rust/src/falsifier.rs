@@ -23,9 +23,8 @@ use crate::slab_tasks::{blocks_per_task, diagnose_parallel, screen_parallel};
 use crate::thresholds::Thresholds;
 use crate::violations::Violations;
 use rayon::ThreadPool;
+use crate::polling::run_polling;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{self, RecvTimeoutError};
-use std::time::Duration;
 
 /// Rows of a block, the unit of candidate counts and checksum parts; a rayon
 /// task takes one or more (see [`crate::slab_tasks::TASK_BYTES`]).
@@ -40,10 +39,6 @@ pub(crate) const BLOCK_ROWS: usize = 1024;
 /// `benches/results-short-rows.txt`, "session 19: where the time went"). In
 /// bytes, not values, so f32 rows are shared as rarely as f64 ones.
 const SLAB_BYTES: usize = 32 << 20;
-/// How often a chunk of several slabs polls the caller's `stop` (Ctrl-C):
-/// the thread that polls is not one of the pool's, so polling costs the
-/// work nothing but that thread's brief wake.
-const STOP_POLL: Duration = Duration::from_millis(10);
 /// Predictions in a slab below which it runs on the calling thread: waking
 /// the pool's threads for it costs more than sharing the work (a hand-over
 /// to a sleeping pool took 0.1-0.2 ms on a 2-core VM, AMD EPYC: `falsify`
@@ -250,7 +245,7 @@ impl Falsifier {
     /// The slabs of one chunk; the chunk's tally, or the error that stopped it.
     ///
     /// A chunk of several slabs runs as one job in the pool while this
-    /// thread only polls `stop` (every [`STOP_POLL`]): handing each slab to
+    /// thread only polls `stop` ([`run_polling`]): handing each slab to
     /// the pool from here and waiting for it kept each of the pool's threads
     /// idle 13-19 µs at a slab's start and 31-67 µs at its end on a 2-core VM
     /// (AMD EPYC; `benches/results-short-rows.txt`, "session 19: where the
@@ -264,31 +259,12 @@ impl Falsifier {
         pending: Option<&mut Pending>,
     ) -> Result<Tally> {
         let cancel = AtomicBool::new(false);
-        // On one of the pool's own threads (a caller inside the pool), waiting
-        // here for a job on the pool could wait forever: slab by slab instead.
-        let result = if chunk.rows() <= self.first_slab_rows::<T>(pool) || pool.current_thread_index().is_some() {
+        let result = if chunk.rows() <= self.first_slab_rows::<T>(pool) {
             self.slabs(chunk, pool, &cancel, pending)
         } else {
-            let (sender, results) = mpsc::channel();
-            let (this, cancel) = (&mut *self, &cancel);
-            pool.in_place_scope(|scope| {
-                scope.spawn(move |_| {
-                    // A send fails only if this thread stopped waiting, which it does not.
-                    let _ = sender.send(this.slabs(chunk, pool, cancel, pending));
-                });
-                loop {
-                    match results.recv_timeout(STOP_POLL) {
-                        Ok(result) => return result,
-                        Err(RecvTimeoutError::Timeout) => {
-                            if !cancel.load(Ordering::Relaxed) && stop() {
-                                cancel.store(true, Ordering::Relaxed);
-                            }
-                        }
-                        // The job panicked: the scope re-raises its panic on return.
-                        Err(RecvTimeoutError::Disconnected) => return Err(EdmfError::Interrupted),
-                    }
-                }
-            })
+            let (this, flag) = (&mut *self, &cancel);
+            run_polling(pool, flag, stop, move || this.slabs(chunk, pool, flag, pending))
+                .unwrap_or(Err(EdmfError::Interrupted))
         };
         match result {
             // Done, but a Ctrl-C came meanwhile: the chunk goes too.

@@ -22,6 +22,7 @@ pub mod falsifier;
 mod falsifier_digest_tests;
 pub mod kernel;
 pub mod matrix;
+mod polling;
 pub mod screening;
 mod slab_tasks;
 pub mod summing;

@@ -6,8 +6,10 @@
 
 use crate::error::{EdmfError, Result};
 use crate::matrix::Matrix;
+use crate::polling::run_polling;
 use rayon::prelude::*;
 use rayon::ThreadPool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Per-sensor bounds `[low_i, high_i]` on the residual g_i(theta) - y_i (Eq. 8).
 #[derive(Debug, Clone, PartialEq)]
@@ -101,22 +103,29 @@ pub fn shortest_interval(sorted: &[f64], probability: f64) -> Result<(f64, f64)>
 
 /// `shortest_interval` for checked arguments (non-empty, 0 < p < 1).
 fn shortest_window(sorted: &[f64], probability: f64) -> (f64, f64) {
-    let n = sorted.len();
-    let k = window_len(probability, n);
+    let k = window_len(probability, sorted.len());
+    narrowest(sorted, &sorted[k - 1..])
+}
+
+/// The narrowest of the windows `[lows[i], highs[i]]` (window `i` of the
+/// sorted samples: its first and last order statistics); the first on ties.
+fn narrowest(lows: &[f64], highs: &[f64]) -> (f64, f64) {
     let mut best = 0;
     let mut best_width = f64::INFINITY;
-    for (i, (lo, hi)) in sorted.iter().zip(&sorted[k - 1..]).enumerate() {
+    for (i, (lo, hi)) in lows.iter().zip(highs).enumerate() {
         let width = hi - lo;
         if width < best_width {
             best_width = width;
             best = i;
         }
     }
-    (sorted[best], sorted[best + k - 1])
+    (lows[best], highs[best])
 }
 
-/// Shortest intervals of every column of `samples` (n_samples x n_m), in parallel
-/// over sensors. `stop` is polled between batches of sensors on the calling thread.
+/// Shortest intervals of every column of `samples` (n_samples x n_m), in
+/// parallel over sensors. `stop` is polled on the calling thread every few
+/// milliseconds, and the sort of each column reads the flag it raises between
+/// runs: a column of 10^7 samples takes seconds to sort.
 pub fn shortest_intervals(
     samples: Matrix<'_, f64>,
     probability: f64,
@@ -138,42 +147,130 @@ pub fn shortest_intervals(
             probability,
         });
     }
-    let mut low = Vec::with_capacity(samples.cols());
-    let mut high = Vec::with_capacity(samples.cols());
-    let batch = pool.current_num_threads().max(1);
-    for first in (0..samples.cols()).step_by(batch) {
-        let last = (first + batch).min(samples.cols());
-        let bounds: Vec<Result<(f64, f64)>> = pool.install(|| {
-            (first..last)
-                .into_par_iter()
-                .map(|j| {
-                    let mut column: Vec<f64> = (0..n).map(|i| samples.get(i, j)).collect();
-                    if let Some(bad) = column.iter().find(|v| !v.is_finite()) {
-                        return Err(EdmfError::invalid(
-                            "combined",
-                            format!("finite samples, got {bad} in sensor column {j}"),
-                        ));
-                    }
-                    column.sort_unstable_by(f64::total_cmp);
-                    Ok(shortest_window(&column, probability))
-                })
-                .collect()
-        });
-        for b in bounds {
-            let (l, h) = b?;
-            low.push(l);
-            high.push(h);
-        }
-        if stop() {
+    let cancel = AtomicBool::new(false);
+    let job = || -> Result<Vec<(f64, f64)>> {
+        (0..samples.cols())
+            .into_par_iter()
+            .map(|j| column_interval(samples, j, probability, &cancel))
+            .collect()
+    };
+    let bounds = run_polling(pool, &cancel, stop, || pool.install(job)).ok_or(EdmfError::Interrupted)??;
+    // Done, but a Ctrl-C came meanwhile (or just now): the call is interrupted.
+    if cancel.load(Ordering::Relaxed) || stop() {
+        return Err(EdmfError::Interrupted);
+    }
+    let (low, high) = bounds.into_iter().unzip();
+    Thresholds::new(low, high)
+}
+
+/// Column `j`'s shortest interval; `Interrupted` once `cancel` is set.
+///
+/// The windows of `k = ceil(p n)` sorted samples start at the `t = n - k + 1`
+/// lowest and end at the `t` highest, so where those two tails do not
+/// overlap (p above about one half: every Šidák probability) only they are
+/// sorted, after two linear-time selections; the order statistics, hence the
+/// interval, are those of the whole sorted column.
+fn column_interval(
+    samples: Matrix<'_, f64>,
+    j: usize,
+    probability: f64,
+    cancel: &AtomicBool,
+) -> Result<(f64, f64)> {
+    let n = samples.rows();
+    let mut column = Vec::with_capacity(n);
+    for first in (0..n).step_by(SORT_RUN) {
+        if cancel.load(Ordering::Relaxed) {
             return Err(EdmfError::Interrupted);
         }
+        column.extend((first..(first + SORT_RUN).min(n)).map(|i| samples.get(i, j)));
     }
-    Thresholds::new(low, high)
+    if let Some(bad) = column.iter().find(|v| !v.is_finite()) {
+        return Err(EdmfError::invalid(
+            "combined",
+            format!("finite samples, got {bad} in sensor column {j}"),
+        ));
+    }
+    let t = n - window_len(probability, n) + 1;
+    if 2 * t >= n {
+        let sorted = sort_cancellable(column, cancel).ok_or(EdmfError::Interrupted)?;
+        return Ok(shortest_window(&sorted, probability));
+    }
+    if cancel.load(Ordering::Relaxed) {
+        return Err(EdmfError::Interrupted);
+    }
+    column.select_nth_unstable_by(t - 1, f64::total_cmp);
+    let upper = &mut column[t..];
+    let top = upper.len() - t;
+    upper.select_nth_unstable_by(top, f64::total_cmp);
+    let lows = sort_cancellable(column[..t].to_vec(), cancel);
+    let highs = sort_cancellable(column[n - t..].to_vec(), cancel);
+    match (lows, highs) {
+        (Some(lows), Some(highs)) => Ok(narrowest(&lows, &highs)),
+        _ => Err(EdmfError::Interrupted),
+    }
+}
+
+/// Values sorted at a time between reads of the cancel flag (about a
+/// millisecond of sorting).
+const SORT_RUN: usize = 1 << 15;
+
+/// `values` in `f64::total_cmp` order, as `sort_unstable_by` gives it (equal
+/// values under `total_cmp` have equal bits, so the result is the same
+/// array), or `None` once `cancel` is set: runs of [`SORT_RUN`] sorted, then
+/// merged pairwise, reading `cancel` between runs.
+fn sort_cancellable(values: Vec<f64>, cancel: &AtomicBool) -> Option<Vec<f64>> {
+    let mut sorted = values;
+    for run in sorted.chunks_mut(SORT_RUN) {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        run.sort_unstable_by(f64::total_cmp);
+    }
+    let n = sorted.len();
+    let mut merged = vec![0.0; if n > SORT_RUN { n } else { 0 }];
+    let mut width = SORT_RUN;
+    while width < n {
+        for start in (0..n).step_by(2 * width) {
+            let (mid, end) = ((start + width).min(n), (start + 2 * width).min(n));
+            merge(
+                &sorted[start..mid],
+                &sorted[mid..end],
+                &mut merged[start..end],
+                cancel,
+            )?;
+        }
+        std::mem::swap(&mut sorted, &mut merged);
+        width *= 2;
+    }
+    Some(sorted)
+}
+
+/// `left` and `right` (each sorted) merged into `out`, reading `cancel`
+/// every [`SORT_RUN`] values.
+fn merge(left: &[f64], right: &[f64], out: &mut [f64], cancel: &AtomicBool) -> Option<()> {
+    let (mut i, mut j) = (0, 0);
+    for piece in out.chunks_mut(SORT_RUN) {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        for slot in piece {
+            // Left first on ties: equal values are equal bits, either is right.
+            if j == right.len() || (i < left.len() && left[i].total_cmp(&right[j]).is_le()) {
+                *slot = left[i];
+                i += 1;
+            } else {
+                *slot = right[j];
+                j += 1;
+            }
+        }
+    }
+    Some(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::polling::run_polling;
 
     fn pool(n: usize) -> ThreadPool {
         rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
@@ -229,6 +326,103 @@ mod tests {
             "skewed column's interval must start at its mode"
         );
         assert!((a.high()[0] - a.low()[0] - 0.9).abs() < 2e-3);
+    }
+
+    #[test]
+    fn the_cancellable_sort_is_the_standard_sort() {
+        // Several runs and a ragged last one; duplicates, signed zeros, extremes.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for n in [
+            0,
+            1,
+            SORT_RUN - 1,
+            SORT_RUN,
+            SORT_RUN + 1,
+            3 * SORT_RUN + 17,
+            8 * SORT_RUN,
+        ] {
+            let values: Vec<f64> = (0..n)
+                .map(|i| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    match i % 7 {
+                        0 => -0.0,
+                        1 => 0.0,
+                        2 => f64::MAX,
+                        3 => (state % 5) as f64,
+                        _ => f64::from_bits(state >> 2) - 1e300,
+                    }
+                })
+                .collect();
+            let mut expected = values.clone();
+            expected.sort_unstable_by(f64::total_cmp);
+            let got = sort_cancellable(values, &AtomicBool::new(false)).unwrap();
+            assert_eq!(
+                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                expected.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "n = {n}"
+            );
+        }
+    }
+
+    #[test]
+    fn sorting_the_tails_only_gives_the_whole_sort_s_interval() {
+        // p above and below one half (tails only, whole sort), with ties and
+        // a long flat stretch; against shortest_interval on the sorted column.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for (n, p) in [
+            (1000, 0.9),
+            (1000, 0.5),
+            (1001, 0.51),
+            (70_001, 0.99),
+            (70_001, 0.3),
+            (3, 0.6),
+        ] {
+            let data: Vec<f64> = (0..n)
+                .map(|i| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    if i % 3 == 0 {
+                        1.5
+                    } else {
+                        (state % 1000) as f64 / 7.0
+                    }
+                })
+                .collect();
+            let mut sorted = data.clone();
+            sorted.sort_unstable_by(f64::total_cmp);
+            let m = Matrix::row_major(&data, n, 1).unwrap();
+            let got = shortest_intervals(m, p, &pool(1), &mut || false).unwrap();
+            let want = shortest_interval(&sorted, p).unwrap();
+            assert_eq!((got.low()[0], got.high()[0]), want, "n = {n}, p = {p}");
+        }
+    }
+
+    #[test]
+    fn a_raised_flag_stops_the_sort_and_a_stop_request_the_call() {
+        let values: Vec<f64> = (0..4 * SORT_RUN).map(|i| ((i * 7919) % 1000) as f64).collect();
+        assert_eq!(sort_cancellable(values, &AtomicBool::new(true)), None);
+        let data = vec![1.0; 1000];
+        let m = Matrix::row_major(&data, 1000, 1).unwrap();
+        let got = shortest_intervals(m, 0.9, &pool(2), &mut || true);
+        assert_eq!(got, Err(EdmfError::Interrupted));
+    }
+
+    #[test]
+    fn the_polling_thread_raises_the_flag_a_running_job_reads() {
+        // The job ends only once the flag is up: without polling it would
+        // spin until the 60 s guard and report false.
+        let cancel = AtomicBool::new(false);
+        let seen = run_polling(&pool(2), &cancel, &mut || true, || {
+            let start = std::time::Instant::now();
+            while !cancel.load(Ordering::Relaxed) && start.elapsed().as_secs() < 60 {
+                std::thread::yield_now();
+            }
+            cancel.load(Ordering::Relaxed)
+        });
+        assert_eq!(seen, Some(true));
     }
 
     #[test]

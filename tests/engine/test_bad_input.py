@@ -128,7 +128,13 @@ def test_bad_thread_count():
     for n in (2**40, 2**70, 64 * (os.cpu_count() or 1) + 1025):  # 2**40 used to never return
         with pytest.raises(ValueError, match=f"n: expected a number of threads from 1 to .*got {n}$"):  # as given
             edmf_rs.set_num_threads(n)
+    for n, kind in ((2.5, "float"), ("2", "str"), (None, "NoneType"), (True, "bool"), (np.float64(2), "float64")):
+        with pytest.raises(TypeError, match=f"^n: expected an integer number of threads from 1 to .*, got {kind}$"):
+            edmf_rs.set_num_threads(n)
     assert edmf_rs.get_num_threads() == before
+    edmf_rs.set_num_threads(np.int64(1))  # NumPy integers are integers
+    assert edmf_rs.get_num_threads() == 1
+    edmf_rs.set_num_threads(before)
 
 
 def test_core_rejects_what_the_python_layer_would_have_caught():

@@ -318,7 +318,8 @@ def test_cli_girder_points_at_the_faulty_gauge(tmp_path, capsys):
     assert rows["SG5"]["candidates_without_sensor"] > 0
     assert all(t["candidates_without_sensor"] == 0 for name, t in rows.items() if name != "SG5")
     assert "Sensor SG5 alone falsifies the model class" in stdout
-    assert summary["identification"]["combined_uncertainty"] == "monte_carlo"
+    assert summary["identification"]["combined_uncertainty"] == {"exact": [f"SG{i}" for i in range(1, 8)],
+                                                                 "convolution": ["D1", "D2", "D3"]}
 
 
 def test_girder_without_the_faulty_gauge_keeps_the_true_girder(tmp_path):

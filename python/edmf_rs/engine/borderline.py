@@ -10,10 +10,29 @@ Exact bounds (SE 0) make no instance borderline.
 
 from __future__ import annotations
 
+import math
+import numbers
+
 import numpy as np
 
-from ._validate import finite_vector
+from ._validate import finite_vector, real_array
 from .thresholds import Thresholds
+
+
+def _checked_k(k) -> float:
+    """``k``: a finite number of standard errors >= 0."""
+    if isinstance(k, (bool, np.bool_)) or not isinstance(k, numbers.Real):
+        raise TypeError(f"k: expected a number of standard errors >= 0, got {type(k).__name__}")
+    k = float(k)
+    if not (math.isfinite(k) and k >= 0):
+        raise ValueError(f"k: expected a finite number of standard errors >= 0, got {k}")
+    return k
+
+
+def _checked_thresholds(thresholds) -> Thresholds:
+    if not isinstance(thresholds, Thresholds):
+        raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
+    return thresholds
 
 
 def _bands(thresholds: Thresholds, k: float):
@@ -33,7 +52,7 @@ def borderline_mask(predictions, measurements, thresholds: Thresholds, k: float 
     predictions : array (N, n_m) of g(theta)
     measurements : array (n_m,) of y
     thresholds : Thresholds, with ``se_low``/``se_high`` for Monte Carlo bounds
-    k : how many standard errors to widen and narrow the bounds by
+    k : how many standard errors to widen and narrow the bounds by (a finite number >= 0)
 
     Returns
     -------
@@ -41,8 +60,11 @@ def borderline_mask(predictions, measurements, thresholds: Thresholds, k: float 
 
     Raises
     ------
+    TypeError
+        ``thresholds`` not a `Thresholds`, ``predictions`` not numeric, or
+        ``k`` not a number.
     ValueError
-        Shapes that do not match the thresholds, or k < 0.
+        Shapes that do not match the thresholds, or ``k`` negative or not finite.
 
     Examples
     --------
@@ -50,12 +72,12 @@ def borderline_mask(predictions, measurements, thresholds: Thresholds, k: float 
     >>> borderline_mask(np.array([[0.0], [0.99], [1.5]]), [0.0], t).tolist()
     [False, True, False]
     """
+    thresholds = _checked_thresholds(thresholds)
+    k = _checked_k(k)
     y = finite_vector(measurements, "measurements", n=thresholds.n_sensors)
-    p = np.asarray(predictions, dtype=np.float64)
+    p = real_array(predictions, "predictions", copy=False)
     if p.ndim != 2 or p.shape[1] != thresholds.n_sensors:
         raise ValueError(f"predictions: expected shape (N, {thresholds.n_sensors}), got {p.shape}")
-    if not k >= 0:
-        raise ValueError(f"k: expected a number of standard errors >= 0, got {k}")
     (wl, wh), (nl, nh) = _bands(thresholds, k)
     r = p - y
     wide = np.all((r >= wl) & (r <= wh), axis=1)
@@ -79,7 +101,8 @@ class BorderlineCounter:
     """Counts borderline instances batch by batch: an ``on_batch(offset, theta, predictions)`` hook."""
 
     def __init__(self, thresholds: Thresholds, measurements, k: float = 2.0):
-        self.thresholds, self.measurements, self.k = thresholds, measurements, k
+        thresholds = _checked_thresholds(thresholds)
+        self.thresholds, self.measurements, self.k = thresholds, measurements, _checked_k(k)
         # Only Monte Carlo bounds have sampling noise to speak of; exact and convolved bounds
         # (whose SE is a numerical error below 1e-4 of the width) skip the extra pass per batch.
         self.active = bool(thresholds.monte_carlo) and thresholds.se_low is not None and bool(

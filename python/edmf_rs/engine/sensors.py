@@ -61,8 +61,15 @@ def _columns(out, names: tuple[str, ...], index: Sequence[int]) -> np.ndarray:
         return np.asarray(out.iloc[:, list(index)].to_numpy(dtype=np.float64))
     if isinstance(out, Mapping):
         keys = list(out.keys())
-        return np.column_stack([np.asarray(out[keys[i]], dtype=np.float64).reshape(-1) for i in index])
-    return np.column_stack([np.asarray(out[names[i]], dtype=np.float64).reshape(-1) for i in index])
+        cols = [np.asarray(out[keys[i]], dtype=np.float64).reshape(-1) for i in index]
+    else:
+        cols = [np.asarray(out[names[i]], dtype=np.float64).reshape(-1) for i in index]
+    lengths = [c.shape[0] for c in cols]
+    if len(set(lengths)) > 1:
+        each = ", ".join(f"{names[i]} has {n}" for i, n in zip(index, lengths))
+        raise SensorMismatch(f"returned columns of different lengths for the sensors ({each} rows); "
+                             "expected one row per parameter set in every column")
+    return np.column_stack(cols)
 
 
 @dataclass(frozen=True)

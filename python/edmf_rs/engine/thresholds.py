@@ -56,7 +56,8 @@ class Thresholds:
         guarantees (`guaranteed_probability`).
     se_low, se_high : numpy.ndarray or None
         Standard error of each bound: Monte Carlo, or the numerical error of
-        a convolution bound (0 where the bound is exact).
+        a convolution bound (0 where the bound is exact; +inf where it could
+        not be estimated). One per sensor, >= 0.
     method : tuple of str or None
         The estimator per sensor: "exact" (closed form), "convolution"
         (numerical convolution of the sources), or the Monte Carlo
@@ -69,7 +70,10 @@ class Thresholds:
     ------
     ValueError
         If ``low`` or ``high`` is not a finite 1-D vector, they differ in
-        length, or ``low > high`` at some sensor.
+        length, or ``low > high`` at some sensor; if ``se_low`` or
+        ``se_high`` is not one value per sensor, or holds NaN or a negative value.
+    TypeError
+        If ``se_low`` or ``se_high`` is not numeric.
 
     Examples
     --------
@@ -108,7 +112,25 @@ class Thresholds:
         for name in ("se_low", "se_high"):
             value = getattr(self, name)
             if value is not None:
-                object.__setattr__(self, name, np.asarray(value, dtype=np.float64).reshape(low.shape))
+                object.__setattr__(self, name, self._standard_errors(value, name, low.shape[0]))
+
+    @staticmethod
+    def _standard_errors(values, name: str, n: int) -> np.ndarray:
+        """``se_low``/``se_high``: n standard errors, each >= 0; +inf (an SE that
+        could not be estimated, as the bootstrap reports with too few samples) is kept."""
+        try:
+            arr = np.asarray(values)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"{name}: expected a 1-D array of {n} standard errors ({exc})") from None
+        if arr.dtype.kind not in "iuf":
+            raise TypeError(f"{name}: expected {n} standard errors (numbers), got dtype {arr.dtype}")
+        arr = np.array(arr, dtype=np.float64, copy=True)
+        if arr.ndim != 1 or arr.shape[0] != n:
+            raise ValueError(f"{name}: expected {n} standard errors (one per sensor), got shape {arr.shape}")
+        bad = np.flatnonzero(np.isnan(arr) | (arr < 0))
+        if bad.size:
+            raise ValueError(f"{name}: expected standard errors >= 0, got {arr[bad[0]]} at sensor {bad[0]}")
+        return arr
 
     @property
     def n_sensors(self) -> int:

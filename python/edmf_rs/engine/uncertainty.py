@@ -175,7 +175,8 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     -------
     CombinedUncertainty
         Exact (a normal per sensor) when every source is normal, otherwise
-        ``n_samples`` Monte Carlo samples of U_c per sensor.
+        ``n_samples`` Monte Carlo samples of U_c per sensor, with the sources
+        kept, so that `threshold_bounds` can convolve them instead.
 
     Raises
     ------
@@ -206,7 +207,9 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     >>> uc.mean.tolist()
     [-0.2, -0.4]
 
-    A uniform source makes U_c Monte Carlo (seeded by default):
+    A uniform source makes U_c samples (seeded by default); `threshold_bounds`
+    then convolves the sources' densities where it can, and uses the samples
+    only where it cannot:
 
     >>> uc = edmf_rs.combine(model=stats.uniform(-0.5, 1.0), measurement=stats.norm(0, 0.1),
     ...                      n_sensors=3, n_samples=10_000)

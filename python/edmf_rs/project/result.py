@@ -25,7 +25,10 @@ from .format import number
 from .prognosis import Prognosis, predict
 from .sample import PLOT_SAMPLE, InstanceSample, PlotSample  # noqa: F401 (re-exported)
 
-SUMMARY_SCHEMA = "edmf_rs.project-summary/2"  # /2: threshold_low, threshold_high (were low, high)
+SUMMARY_SCHEMA = "edmf_rs.project-summary/3"  # /2: threshold_low, threshold_high (were low, high);
+# /3: identification.combined_uncertainty maps how the bounds were found to the sensors (was one string)
+#: How a sensor's threshold bounds were found, by the `Thresholds.method` it has.
+BOUND_METHODS = {"exact": "exact", "convolution": "convolution"}  # any other method: "monte_carlo"
 #: The files ``Identification.write`` writes (summary.json last).
 FIGURES = ("leave_one_out", "residuals", "scatter_matrix", "parallel_coordinates", "sensitivity")
 OUTPUT_FILES = (*(f"{name}.png" for name in FIGURES), "candidates.parquet", "thresholds.csv", "report.html",
@@ -231,6 +234,32 @@ class Identification:
             "candidates_without_sensor": loo.candidates_without_sensor,
         })
 
+    def bound_methods(self) -> dict[str, list[str]]:
+        """How each sensor's threshold bounds were found, as ``thresholds.csv``'s ``method`` column says.
+
+        Returns
+        -------
+        dict
+            ``"exact"`` (closed form: every source normal, or a single source),
+            ``"convolution"`` (numerical convolution of the sources' densities)
+            and ``"monte_carlo"`` (from the Monte Carlo samples: a source that
+            cannot be convolved), each with its sensors in order; kinds no
+            sensor has are left out.
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> list(ident.bound_methods()), len(ident.bound_methods()["exact"])
+        (['exact'], 10)
+        """
+        methods = self.thresholds.method or ("exact",) * len(self.project.sensors)
+        out: dict[str, list[str]] = {"exact": [], "convolution": [], "monte_carlo": []}
+        for sensor, method in zip(self.project.sensors, methods):
+            out[BOUND_METHODS.get(method, "monte_carlo")].append(sensor.name)
+        return {kind: names for kind, names in out.items() if names}
+
     def summary(self) -> str:
         """A few lines for the terminal: instances, candidates, parameter ranges, findings.
 
@@ -247,9 +276,14 @@ class Identification:
         Cantilever beam, scenario 2: 101 model instances, 10 sensors, phi = 0.95 (sidak correction), combined uncertainty exact (normal)
         """
         p, r = self.project, self.falsification
-        combined = "exact (normal)" if self.combined.exact else (
-            "numerical convolution of the sources" if not self.thresholds.monte_carlo
-            else f"Monte Carlo, {p.n_samples:,} samples")
+        methods = self.bound_methods()
+        if self.combined.exact:
+            combined = "exact (normal)"
+        else:
+            how = {"exact": "exact", "convolution": "numerical convolution of the sources",
+                   "monte_carlo": f"Monte Carlo ({p.n_samples:,} samples)"}
+            combined = how[next(iter(methods))] if len(methods) == 1 else ", ".join(
+                f"{how[kind]} at {len(names)} sensor{'s' * (len(names) > 1)}" for kind, names in methods.items())
         lines = [f"{p.name}: {r.n_instances:,} model instances, {r.n_sensors} sensors, phi = {p.phi:g} "
                  f"({p.correction} correction), combined uncertainty {combined}"]
         if r.model_class_falsified:
@@ -309,7 +343,7 @@ class Identification:
             "failed_instances": (self.evaluation or {}).get("failed_instances", 0),
             "identification": {
                 "phi": p.phi, "correction": p.correction, "per_sensor_probability": t.probability,
-                "combined_uncertainty": "exact" if self.combined.exact else "monte_carlo",
+                "combined_uncertainty": self.bound_methods(),
                 "monte_carlo_samples": None if self.combined.exact else p.n_samples,
                 "monte_carlo_seed": None if self.combined.exact else p.seed,
                 "monte_carlo_confidence": t.confidence,

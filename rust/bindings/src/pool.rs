@@ -2,9 +2,9 @@
 //! fight other rayon users in the same process). Sized by `set_num_threads`,
 //! else `EDMF_RS_NUM_THREADS`, else the number of cores.
 
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyInt;
+use pyo3::types::{PyBool, PyInt};
 use rayon::{ThreadPool, ThreadPoolBuilder};
 use std::sync::{Arc, Mutex};
 
@@ -99,10 +99,17 @@ fn max_threads() -> usize {
 pub fn set_num_threads(n: &Bound<'_, PyAny>) -> PyResult<()> {
     let max = max_threads();
     let given = n.str().map(|s| s.to_string()).unwrap_or_default(); // as given, however large
+    // An int or what converts like one (NumPy integers); not a bool, float or string.
+    let integer = n.is_instance_of::<PyInt>() || n.call_method0("__index__").is_ok();
+    if !integer || n.is_instance_of::<PyBool>() {
+        let kind = n.get_type().name().map(|s| s.to_string()).unwrap_or_default();
+        return Err(PyTypeError::new_err(format!(
+            "n: expected an integer number of threads from 1 to {max}, got {kind}"
+        )));
+    }
     let n: i64 = match n.extract::<i64>() {
         Ok(v) => v,
-        Err(_) if n.is_instance_of::<PyInt>() => i64::MAX, // beyond i64: refused below as too many
-        Err(e) => return Err(e),
+        Err(_) => i64::MAX, // an integer beyond i64: refused below as too many
     };
     if n < 1 || n as u64 > max as u64 {
         return Err(PyValueError::new_err(format!(

@@ -171,9 +171,12 @@ def _sources(ident) -> str:
 def _settings(ident) -> str:
     p, t = ident.project, ident.thresholds
     sampling = p.sampling.describe() if p.sampling else f"precomputed instances ({p.model.predictions.name})"
-    combined = "exact (every source normal)" if ident.combined.exact else (
-        "numerical convolution of the sources (error < 1e-4 of the width)" if not t.monte_carlo
-        else f"Monte Carlo, {p.n_samples:,} samples (seed {p.seed})")
+    kinds = {"exact": "exact (every source normal, or one source)",
+             "convolution": "numerical convolution of the sources (error < 1e-4 of the width)",
+             "monte_carlo": f"Monte Carlo, {p.n_samples:,} samples (seed {p.seed})"}
+    methods = ident.bound_methods()
+    combined = kinds[next(iter(methods))] if len(methods) == 1 else "; ".join(
+        f"{kinds[kind]} at {', '.join(names)}" for kind, names in methods.items())
     model = p.model.function or (f"command {' '.join(p.model.command.command)}" if p.model.command
                                  else p.model.predictions.name)
     rows = [["model", model], ["instances", sampling], ["target probability φ", f"{p.phi:g}"],
