@@ -88,3 +88,98 @@ def test_bad_input():
         design.expected_identifiability(g, edmf_rs.combine(measurement=[stats.norm(0, 1)], n_sensors=2), [0])
     with pytest.raises(ValueError, match="^n_simulations:"):
         design.expected_identifiability(g, u, [0], n_simulations=0)
+
+
+def _project_combined(names, n_samples):
+    """A mixed U_c as a project makes it (named locations, exact marginals kept)."""
+    from edmf_rs.project.sources import UncertaintySource, combine_sources
+
+    sources = (
+        UncertaintySource("noise", "measurement", "normal", (0.0, 0.1), "absolute", (0, 1, 2)),
+        UncertaintySource("m", "model", "normal", (0.0, 1.0), "absolute", (0, 1, 2)),
+        UncertaintySource("n2", "model", "normal", (0.0, 0.5), "absolute", (0,)),
+        UncertaintySource("u", "model", "uniform", (-1.0, 1.0), "absolute", (1, 3)),
+        UncertaintySource("c", "model", "cauchy", (), "absolute", (2,), (("loc", 0.0), ("scale", 0.1))),
+    )
+    return combine_sources(sources, np.ones(4), n_samples=n_samples, seed=3, sensor_names=names)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("sensors", [[0], [1, 0], [2, 0, 1], [3, 1], [0, 1, 2, 3]])
+@pytest.mark.parametrize("correction", ["sidak", "bonferroni"])
+def test_subset_bounds_are_the_full_bounds_of_those_sensors(sensors, correction):
+    from edmf_rs.design.identifiability import subset
+    from edmf_rs.engine.thresholds import sensor_probability
+
+    combined = _project_combined(("A", "B", "C", "D"), 20_000)
+    assert combined.exact_sensors.tolist() == [True, False, False, True]
+    sub = edmf_rs.threshold_bounds(subset(combined, sensors), phi=0.95, correction=correction)
+    p = sensor_probability(0.95, len(sensors), correction)
+    full = edmf_rs.threshold_bounds(combined, phi=p, correction="none")
+    np.testing.assert_array_equal(sub.low, full.low[sensors])
+    np.testing.assert_array_equal(sub.high, full.high[sensors])
+    assert sub.method == tuple(full.method[j] for j in sensors)
+    assert sub.probability == p
+
+
+def test_all_normal_sensors_of_a_mixed_uncertainty_get_exact_bounds():
+    """repro: two all-normal locations of a U_c with a Monte Carlo one had Monte Carlo bounds."""
+    from edmf_rs.design.identifiability import subset
+
+    comb = edmf_rs.combine(model=[[stats.norm(0, 1), stats.norm(0, 1), stats.uniform(-1, 2)]],
+                           measurement=[stats.norm(0, 0.1)], n_samples=20_000)
+    t = edmf_rs.threshold_bounds(subset(comb, [0, 1]), phi=0.95)
+    exact = stats.norm(0, np.hypot(1, 0.1)).ppf(0.5 + 0.95 ** 0.5 / 2)
+    np.testing.assert_allclose(t.high, [exact, exact], rtol=1e-12)
+    np.testing.assert_allclose(t.low, [-exact, -exact], rtol=1e-12)
+    assert t.method == ("exact", "exact")
+
+
+def test_thin_tail_warnings_name_the_locations_not_subset_positions():
+    from edmf_rs.design.identifiability import subset
+
+    combined = _project_combined(("A", "B", "C", "D"), 2_000)  # few samples: C's bounds warn
+    with pytest.warns(UserWarning, match=r"combined: sensor C: about") as caught:
+        edmf_rs.threshold_bounds(subset(combined, [2, 0]), phi=0.95)
+    assert not any("sensor 0" in str(w.message) for w in caught)
+    unnamed = _project_combined(None, 2_000)
+    with pytest.warns(UserWarning, match=r"combined: sensor 2: about"):
+        edmf_rs.threshold_bounds(subset(unnamed, [2, 0]), phi=0.95)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_expected_identifiability_uses_the_full_bounds_of_its_sensors():
+    """The sizes are those of Eq. 8 with each sensor's bounds in the full U_c (the falsification's)."""
+    from edmf_rs.engine.thresholds import sensor_probability
+
+    combined = _project_combined(("A", "B", "C", "D"), 20_000)
+    g = np.random.default_rng(0).normal(size=(400, 4)) * 3
+    sensors = [2, 0, 1]
+    r = design.expected_identifiability(g, combined, sensors, n_simulations=300, seed=5)
+    full = edmf_rs.threshold_bounds(combined, phi=sensor_probability(0.95, 3, "sidak"), correction="none")
+    truth, residuals = ref.draw_simulations(combined, 400, 300, 5)
+    expected = ref.candidate_counts(g, sensors, truth, residuals[:, sensors], full.low[sensors], full.high[sensors])
+    np.testing.assert_array_equal(r.sizes, expected)
+
+
+def test_subset_takes_every_field_of_the_combined_uncertainty():
+    """A field added to CombinedUncertainty must be taken per location by subset (or be one for all):
+    this list is what subset handles."""
+    import dataclasses
+
+    from edmf_rs.design.identifiability import subset
+    from edmf_rs.engine.uncertainty import CombinedUncertainty
+
+    per_location = {"n_sensors", "distribution", "samples", "marginals", "symmetric", "gaussian", "sensor_names",
+                    "sources"}
+    shared = {"seed"}
+    assert {f.name for f in dataclasses.fields(CombinedUncertainty)} == per_location | shared
+    combined = _project_combined(("A", "B", "C", "D"), 2_000)
+    sub = subset(combined, [3, 1])
+    assert sub.n_sensors == 2 and sub.samples.shape == (2_000, 2) and sub.seed == combined.seed
+    np.testing.assert_array_equal(sub.samples, combined.samples[:, [3, 1]])
+    assert sub.marginals == (combined.marginals[3], combined.marginals[1])
+    assert sub.sources == (combined.sources[3], combined.sources[1])
+    assert sub.symmetric.tolist() == combined.symmetric[[3, 1]].tolist()
+    assert sub.gaussian.tolist() == combined.gaussian[[3, 1]].tolist()
+    assert sub.sensor_names == ("D", "B")

@@ -1,5 +1,6 @@
-"""Where to run the model next: space-filling designs in the unit cube, and
-the record of every real run (issue 16, steps 1 and 4)."""
+"""Where to run the model next: space-filling designs in the unit cube, the
+record of every real run, the points probed when the emulator keeps none, and
+the least budget of a run (issue 16, steps 1 and 4)."""
 
 from __future__ import annotations
 
@@ -207,3 +208,62 @@ class RunStore:
         self.theta = np.vstack([self.theta, theta])
         self.g = np.vstack([self.g, g])
         self.wave = np.concatenate([self.wave, np.full(theta.shape[0], wave, np.int64)])
+
+
+#: What to change when :func:`budget_problem` finds the budget too small.
+BUDGET_HINT = "raise budget or lower n_initial or wave_size"
+
+
+def budget_problem(p: int, budget: int, n_initial: int | None = None, wave_size: int | None = None) -> str | None:
+    """What ``budget`` must be, when it cannot hold the initial design and one
+    wave (``n_initial`` and ``wave_size`` None: their defaults for ``p``
+    parameters, 20 x p and 10 x p); None when it can. The rule of
+    :func:`adaptive_falsify` and of an adaptive project's ``budget``.
+
+    Examples
+    --------
+    >>> budget_problem(1, 20)
+    'at least n_initial + wave_size = 20 + 10 = 30 real runs (the initial design and one wave)'
+    >>> budget_problem(1, 30) is None
+    True
+    """
+    n_initial = 20 * p if n_initial is None else n_initial
+    wave_size = 10 * p if wave_size is None else wave_size
+    if budget >= n_initial + wave_size:
+        return None
+    return (f"at least n_initial + wave_size = {n_initial} + {wave_size} = {n_initial + wave_size} real runs "
+            "(the initial design and one wave)")
+
+
+def pool_size(k: int) -> int:
+    """Screening points the next wave of ``k`` runs is drawn from when none is kept.
+
+    Examples
+    --------
+    >>> pool_size(10), pool_size(100)
+    (1000, 2000)
+    """
+    return max(20 * k, 1000)
+
+
+def closest(screening: np.ndarray, nearest: tuple[np.ndarray, np.ndarray], runs: np.ndarray,
+            k: int) -> np.ndarray:
+    """k points spread over the screening points the emulator deems least
+    inconsistent, when it keeps none: ``nearest`` holds screening points
+    (indices) and the margin c each needs with the emulator's exact deviation;
+    the ``pool_size(k)`` that need the smallest margin are where a candidate
+    would be if the emulator were wrong, and the k picked among them are
+    those farthest from the runs (:func:`farthest_points`).
+
+    Examples
+    --------
+    Point 1 is not among those checked; of the others, 3 is the farthest from the run at 0:
+
+    >>> screening = np.array([[0.1], [0.95], [0.5], [0.9]])
+    >>> closest(screening, (np.array([0, 2, 3]), np.array([4.0, 5.0, 90.0])), np.array([[0.0]]), 1).tolist()
+    [[0.9]]
+    """
+    pool, need = nearest
+    order = pool[np.sort(np.argsort(need, kind="stable")[:pool_size(k)])]
+    picked = farthest_points(screening[order], runs, k)
+    return screening[order[picked]]

@@ -35,10 +35,17 @@ class WaveRecord:
         threshold width, share of runs within c leave-one-out deviations.
     sigma_ratio
         95th percentile over kept points of sigma_i / threshold width,
-        largest over sensors (over all screening points when none is kept).
+        largest over sensors. When none is kept: over the points the next
+        wave is drawn from, those of the checked points (below) that need the
+        smallest margin c.
     min_required_c
         Smallest margin c (in emulator standard deviations) that would keep a
-        screening point.
+        screening point. When none is kept, the smallest over the checked
+        points: the screening rejects most points on an upper bound of sigma
+        without computing it, so the emulator's exact sigma is computed at a
+        few thousand points only, those whose emulated mean is nearest to
+        passing and the first 4096 of the sample (a Sobol' net over it); with
+        up to 4096 screening points, every one.
     kept_sample
         Up to a few hundred kept points (parameter units), for plots.
     problems
@@ -109,6 +116,10 @@ class AdaptiveResult:
         Why the waves stopped (converged, budget, ...).
     n_screen, c : int, float
         Screening sample size and the emulator margin in standard deviations.
+    basis : str
+        The emulators used: ``"sensors"`` (a Gaussian process per sensor) or
+        ``"pca"`` (Gaussian processes on principal components of the outputs;
+        ``components`` of each wave says how many).
 
     Examples
     --------
@@ -129,6 +140,18 @@ class AdaptiveResult:
     stop_reason: str
     n_screen: int
     c: float
+    basis: str = "sensors"
+
+    def emulator_description(self) -> str:
+        """The emulators in words, e.g. "one Gaussian process per sensor"."""
+        n_m = int(self.run_predictions.shape[1])
+        if self.basis != "pca":
+            return "one Gaussian process per sensor"
+        k = sorted({w.components for w in self.waves if w.components is not None})
+        count = "" if not k else (f"{k[0]}" if len(k) == 1 else f"{k[0]} to {k[-1]}")
+        count += " " if count else ""
+        return (f"Gaussian processes on the {count}leading principal components of the standardised outputs of the "
+                f"{n_m} sensors, their variance propagated back to every sensor")
 
     @property
     def n_runs(self) -> int:

@@ -36,7 +36,8 @@ from ..engine.sampling import Parameter
 from ..engine.sensors import sensor_match
 from ..engine.thresholds import Thresholds
 from .basis import VARIANCE_KEPT, emulators
-from .design import RunStore, edge_rows, extremes, farthest_points, sobol_points
+from .design import (BUDGET_HINT, RunStore, budget_problem, closest, edge_rows, extremes, farthest_points,
+                     pool_size, sobol_points)
 from .edges import push, walk
 from .emulator import EmulatorError
 from .result import AdaptiveResult, WaveRecord
@@ -56,6 +57,10 @@ WALK = True
 
 #: With ``basis = "auto"``, more sensors than this are emulated on principal components.
 PCA_SENSORS = 10
+
+#: When the emulator keeps no point, its exact deviation is also computed at the first this many
+#: points of the screening sample (a Sobol' net over the domain), besides those nearest to passing.
+SPREAD = 4096
 
 
 def _parameters(bounds) -> tuple[Parameter, ...]:
@@ -188,10 +193,9 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                       f"will likely fail validation at first (default 20 x n_params = {20 * p})", stacklevel=2)
     wave_size = 10 * p if wave_size is None else positive_int(wave_size, "wave_size")
     budget = positive_int(budget, "budget")
-    if budget < n_initial + wave_size:
-        raise ValueError(f"budget: expected at least n_initial + wave_size = {n_initial} + {wave_size} = "
-                         f"{n_initial + wave_size} real runs (the initial design and one wave), got {budget}; "
-                         "raise budget or lower n_initial or wave_size")
+    problem = budget_problem(p, budget, n_initial, wave_size)
+    if problem is not None:
+        raise ValueError(f"budget: expected {problem}, got {budget}; {BUDGET_HINT}")
     final_size = 2 * wave_size if final_size is None else positive_int(final_size, "final_size")
     if budget < n_initial + wave_size + final_size:
         warnings.warn(f"budget: {budget} runs leave room for the initial design and the final wave only, no "
@@ -240,6 +244,9 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     emulator = None
     optimized_at = [0]  # runs at the last hyperparameter search
     mean_at_kept = [None]  # the emulator's mean at the kept points of the last screening
+    # With nothing kept: the points whose exact deviation is computed, nearest to passing on the mean
+    # (twice what a wave draws from, so that the exact margins rank them).
+    closest_pool = 2 * pool_size(max(wave_size, final_size))
 
     def mean_passes(u: np.ndarray) -> np.ndarray:
         """Eq. 8 on the current emulator's mean."""
@@ -247,8 +254,22 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
         return ((r >= thresholds.low) & (r <= thresholds.high)).all(axis=1)
 
     def screen_set(points: np.ndarray):
-        """Kept, mean-kept (c = 0), required margin and sigma / width over ``points``."""
-        kept, mean_kept, need, ratios, mu_kept = [], [], np.empty(points.shape[0]), [], []
+        """Screens ``points``: (kept, mean-kept (c = 0), min_required_c, sigma_ratio, nearest).
+
+        The screening's deviations are the prior bound where the bound alone
+        rejects a point (:meth:`predict_for_screening`), exact elsewhere, so
+        every kept point has its exact deviation. When none is kept, the
+        exact deviation is computed at a few thousand points only: the
+        ``closest_pool`` whose mean is nearest to passing (in prior-bound
+        deviations) and the first ``SPREAD`` of the sample; min_required_c is
+        the smallest margin among them, sigma_ratio the deviations at the
+        ``closest_pool / 2`` of them that need the smallest margins, and
+        ``nearest`` (their indices, the margin each needs) is what
+        :func:`~.design.closest` draws the next wave from.
+        """
+        bound = emulator.prior_std()
+        kept, mean_kept, need_kept, ratios, mu_kept = [], [], [], [], []
+        need_bound = np.empty(points.shape[0])  # margin with the bound: a lower bound of the exact one
         for first in range(0, points.shape[0], 8192):
             part = points[first:first + 8192]
             mu, sd = emulator.predict_for_screening(part, y, thresholds.low, thresholds.high, c)
@@ -256,15 +277,29 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
             kept.append(local + first)
             mu_kept.append(mu[local])
             mean_kept.append(screen(mu, np.zeros_like(sd), y, thresholds, 0.0)[0] + first)
-            need[first:first + len(part)] = required_margin(mu, sd, y, thresholds)
-            ratios.append(sd / width)
+            need_kept.append(required_margin(mu[local], sd[local], y, thresholds))
+            ratios.append(sd[local] / width)
+            need_bound[first:first + len(part)] = required_margin(mu, np.broadcast_to(bound, mu.shape), y, thresholds)
         mean_at_kept[0] = np.concatenate(mu_kept)
-        return np.concatenate(kept), np.concatenate(mean_kept), need, np.concatenate(ratios)
+        kept, mean_kept = np.concatenate(kept), np.concatenate(mean_kept)
+        if kept.size:  # every kept point has its exact deviation; the others need more than c
+            ratio = np.concatenate(ratios)
+            return kept, mean_kept, float(np.concatenate(need_kept).min()), \
+                float(np.percentile(ratio, 95, axis=0).max()), None
+        # The exact deviation at these points only: those nearest to passing on the mean, and the first
+        # SPREAD points of the sample (a Sobol' net over it: the margin may be smallest far from every run).
+        checked = np.union1d(np.argsort(need_bound, kind="stable")[:closest_pool],
+                             np.arange(min(points.shape[0], SPREAD)))
+        mu, sd = emulator.predict(points[checked])
+        need = required_margin(mu, sd, y, thresholds)
+        near = np.argsort(need, kind="stable")[:closest_pool // 2]  # the most nearly consistent of them
+        return kept, mean_kept, float(need.min()), float(np.percentile(sd[near] / width, 95, axis=0).max()), \
+            (checked, need)
 
     def fit_and_screen(index: int, kind: str, spent: int):
         """Refit after a wave, screen, record the wave.
 
-        Returns (record, screening points used, kept, mean-kept, required margin)."""
+        Returns (record, screening points used, kept, mean-kept, nearest: see ``screen_set``)."""
         nonlocal emulator
         finite = np.isfinite(store.g).all(axis=1)
         problems: list[str] = []
@@ -297,7 +332,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
                                 problems=tuple(problems))
             return record, screening, None, None, None
         points, volume = screening, 1.0
-        kept, mean_kept, need, ratio = screen_set(points)
+        kept, mean_kept, min_c, sigma_ratio, nearest = screen_set(points)
         if kept.size:
             # Zoom: a second sample as dense over the box around the kept points
             # (widened by two sample spacings), so small kept regions are resolved.
@@ -307,21 +342,19 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
             if np.prod(hi - lo) < 0.5:
                 volume = float(np.prod(hi - lo))
                 points = lo + (hi - lo) * zoom_unit
-                kept, mean_kept, need, ratio = screen_set(points)
-        over = ratio[kept] if kept.size else ratio
-        sigma_ratio = float(np.percentile(over, 95, axis=0).max())
+                kept, mean_kept, min_c, sigma_ratio, nearest = screen_set(points)
         sample = kept[np.linspace(0, kept.size - 1, min(kept.size, KEPT_SAMPLE)).round().astype(np.int64)] \
             if kept.size else kept
         record = WaveRecord(index, kind, spent, store.n_runs, n_cand, kept_fraction=volume * kept.size / n_screen,
                             mean_kept_fraction=volume * mean_kept.size / n_screen, validated=validation.ok,
                             loo_error=validation.error, loo_coverage=validation.coverage, sigma_ratio=sigma_ratio,
-                            min_required_c=float(need.min()), kept_sample=to_domain(points[sample]),
+                            min_required_c=min_c, kept_sample=to_domain(points[sample]),
                             problems=tuple(problems), components=getattr(emulator, "n_components", None),
                             fit_seconds=fit_seconds)
-        return record, points, kept, mean_kept, need
+        return record, points, kept, mean_kept, nearest
 
     spent = run(domain_design(n_initial), 0)
-    record, points, kept, mean_kept, need = fit_and_screen(0, "initial", spent)
+    record, points, kept, mean_kept, nearest = fit_and_screen(0, "initial", spent)
     waves.append(record)
     stop_reason = "max_waves"
     for index in range(1, max_waves + 1):
@@ -342,12 +375,12 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
             u_next = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, wave_size, mean_passes)
         elif record.validated:  # nothing kept: probe the most nearly consistent points
             kind = "adaptive"
-            u_next = _closest(points, need, store.u, wave_size)
+            u_next = closest(points, nearest, store.u, wave_size)
         else:
             kind = "fallback"
             u_next = domain_design(wave_size)
         spent = run(u_next, index)
-        record, points, kept, mean_kept, need = fit_and_screen(index, kind, spent)
+        record, points, kept, mean_kept, nearest = fit_and_screen(index, kind, spent)
         waves.append(record)
 
     # Final wave: spread over the kept region of the last emulator; the model decides.
@@ -356,7 +389,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     if record.validated and kept.size:
         u_final = _spread(points, kept, mean_kept, mean_at_kept[0], store.u, n_final, mean_passes)
     elif record.validated:
-        u_final = _closest(points, need, store.u, n_final)
+        u_final = closest(points, nearest, store.u, n_final)
     else:
         u_final = domain_design(n_final)
     kind = "final"
@@ -368,7 +401,7 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
     result = replace(result, candidate_parameters=_readonly(store.theta[idx].copy()),
                      candidate_predictions=_readonly(store.g[idx].copy()))
     return AdaptiveResult(params, result, tuple(waves), _readonly(store.theta), _readonly(store.g),
-                          _readonly(store.wave), stop_reason, n_screen, c)
+                          _readonly(store.wave), stop_reason, n_screen, c, basis)
 
 
 def _n_candidates(g: np.ndarray, y: np.ndarray, t: Thresholds) -> int:
@@ -401,13 +434,3 @@ def _spread(screening: np.ndarray, kept: np.ndarray, mean_kept: np.ndarray, mu_k
     first = np.concatenate([np.arange(ends.shape[0]), ends.shape[0] + sensor_ends])
     picked = farthest_points(pool, runs, k, first=first)
     return pool[picked]
-
-
-def _closest(screening: np.ndarray, need: np.ndarray, runs: np.ndarray, k: int) -> np.ndarray:
-    """k points spread over the screening points the emulator deems least
-    inconsistent (smallest required margin): where a candidate would be if
-    the emulator were wrong."""
-    order = np.argsort(need, kind="stable")[:max(20 * k, 1000)]
-    order.sort()
-    picked = farthest_points(screening[order], runs, k)
-    return screening[order[picked]]

@@ -29,6 +29,33 @@ def predictions_array(predictions) -> np.ndarray:
     return g
 
 
+#: Rows of the predictions checked for non-finite values at a time (a memory map is never copied whole).
+CHECK_ROWS = 65_536
+
+
+def first_non_finite(g: np.ndarray) -> tuple[int, int] | None:
+    """(instance, location) of the first NaN or infinite prediction of ``g``, or None; read
+    ``CHECK_ROWS`` rows at a time."""
+    for first in range(0, g.shape[0], CHECK_ROWS):
+        bad = ~np.isfinite(g[first:first + CHECK_ROWS])
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            return first + int(i), int(j)
+    return None
+
+
+def finite_predictions(g: np.ndarray, why: str = "") -> np.ndarray:
+    """``g`` (from :func:`predictions_array`) when every prediction is finite;
+    else a ValueError naming the first non-finite one (instance and location),
+    then ``why`` (e.g. what to do about it)."""
+    bad = first_non_finite(g)
+    if bad is not None:
+        i, j = bad
+        raise ValueError(f"predictions: expected finite values, got {g[i, j]} at instance {i}, location {j}"
+                         + (f"; {why}" if why else ""))
+    return g
+
+
 def widths_vector(widths, n_locations: int) -> np.ndarray:
     return _positive_vector(widths, "widths", n_locations)
 
@@ -53,16 +80,37 @@ def _vector(values, name: str, n: int) -> np.ndarray:
         raise TypeError(f"{name}: expected a 1-D array of numbers ({exc})") from None
     if v.dtype.kind not in "iuf":
         raise TypeError(f"{name}: expected numbers, got dtype {v.dtype}")
-    v = np.ascontiguousarray(v, dtype=np.float64)
+    if v.ndim == 0:
+        raise ValueError(f"{name}: expected one value per location ({n}), got the single number {v.item()!r} "
+                         f"(for the same value everywhere: [{v.item()!r}] * {n})")
     if v.shape != (n,):
         raise ValueError(f"{name}: expected one value per location ({n}), got shape {v.shape}")
-    return v
+    return np.ascontiguousarray(v, dtype=np.float64)
 
 
-def index(value, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name}: expected location indices (integers), got {value!r}")
+def index(value, name: str, what: str = "location indices (integers)") -> int:
+    """``value`` as an int; a TypeError naming ``name`` and saying ``what`` was expected otherwise."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name}: expected {what}, got {value!r}")
     return int(value)
+
+
+def count(value, name: str, what: str) -> int:
+    """An integer count (``what`` says of what, e.g. "a number of sensors"); a TypeError otherwise."""
+    return index(value, name, f"{what} (an integer)")
+
+
+def sensor_types(types, n_locations: int) -> tuple[str, ...] | None:
+    """One sensor type per location, as strings (how designs report them and
+    ``max_per_type`` names them: :func:`quotas` takes its keys as strings too)."""
+    if types is None:
+        return None
+    if isinstance(types, (str, bytes)) or not hasattr(types, "__iter__"):
+        raise TypeError(f"types: expected a sequence of sensor types, one per location, got {types!r}")
+    types = tuple(str(t) for t in types)
+    if len(types) != n_locations:
+        raise ValueError(f"types: expected one type per location ({n_locations}), got {len(types)}")
+    return types
 
 
 def locations(values, name: str, n_locations: int, *, distinct: bool = True) -> list[int]:
@@ -156,11 +204,19 @@ def quotas(max_per_type, types, fixed, n_locations: int):
         raise TypeError(f"max_per_type: expected a dict of sensor type to a number of sensors, got {max_per_type!r}")
     if types is None:
         raise ValueError("max_per_type: expected types=... (one sensor type per location) to go with it")
+    # Types are compared as strings, as `sensor_types` gives them: {2: 1} limits the locations of type 2.
+    keyed: dict[str, object] = {}
+    given: dict[str, object] = {}  # the keys as given, for messages
+    for key, value in max_per_type.items():
+        if str(key) in keyed:
+            raise ValueError(f"max_per_type: expected each sensor type once, got {given[str(key)]!r} and {key!r}")
+        keyed[str(key)], given[str(key)] = value, key
+    max_per_type = keyed
     names = sorted(set(types))
     unknown = [t for t in max_per_type if t not in names]
     if unknown:
         raise ValueError(f"max_per_type: expected sensor types of the locations ({', '.join(names)}), "
-                         f"got {unknown[0]!r}")
+                         f"got {given[unknown[0]]!r}")
     limit = []
     for t in names:
         q = max_per_type.get(t, n_locations)

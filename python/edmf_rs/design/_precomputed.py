@@ -18,6 +18,7 @@ import numpy as np
 
 from ..project.inputs import regular_file
 from ..project.table import ProjectError
+from ._checks import first_non_finite
 
 
 def files(predictions: Path | None, columns) -> tuple[Path, ...]:
@@ -91,9 +92,12 @@ def in_column_order(candidates: tuple, names: tuple[str, ...] | None, label: str
     return tuple(have[n] for n in names)
 
 
-def load_predictions(file: Path, n_locations: int, label: str) -> np.ndarray:
+def load_predictions(file: Path, names, label: str) -> np.ndarray:
     """(N, L) predictions: a read-only memory map of a .npy (float32 or
-    float64, not copied) or the numbers of a CSV as float64."""
+    float64, not copied) or the numbers of a CSV as float64; ``names`` are the
+    candidate locations of the columns. A NaN or infinite prediction is
+    refused, naming the file, the instance and the location."""
+    n_locations = len(names)
     if file.suffix.lower() == ".npy":
         try:
             g = np.load(file, mmap_mode="r")
@@ -107,4 +111,11 @@ def load_predictions(file: Path, n_locations: int, label: str) -> np.ndarray:
     if g.ndim != 2 or g.shape[1] != n_locations or g.shape[0] < 1:
         raise ProjectError(f"{label}: design.predictions: expected shape (instances, {n_locations}), one column per "
                            f"candidate location, got shape {g.shape}")
+    bad = first_non_finite(g)
+    if bad is not None:
+        i, j = bad
+        row = f"row {i}" + (" below the header" if file.suffix.lower() == ".csv" else "")
+        raise ProjectError(f"{label}: design.predictions: {file.name}: expected finite predictions, got {g[i, j]} "
+                           f"at instance {i} ({row}), location '{names[j]}'; leave out the instances whose model "
+                           "run failed, or run them again")
     return g

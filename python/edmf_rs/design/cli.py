@@ -64,6 +64,22 @@ def check_design_out(out: Path, project: DesignProject, force: bool) -> None:
     check_out(out, project, force or _earlier_design(out, project), outputs=OUTPUT_FILES, what="design")
 
 
+def _earlier_outputs(out: Path, project: DesignProject) -> set[str]:
+    """The outputs an earlier design of this same project wrote into ``out``, as its
+    design.json records them: only when the run marker names this project file,
+    and only names of design outputs (never another file of the folder)."""
+    try:
+        if (out / MARKER).read_text(encoding="utf-8").strip() != str(project.file.resolve()):
+            return set()
+        doc = json.loads((out / "design.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    listed = doc.get("outputs") if isinstance(doc, dict) else None
+    if not isinstance(listed, list):
+        return set()
+    return {name for name in listed if isinstance(name, str)} & set(OUTPUT_FILES) - {MARKER, "design.json"}
+
+
 def run_design(project_path, out=None, *, force: bool = False) -> dict:
     """Runs a design project; returns the paths written."""
     start = time.perf_counter()
@@ -81,6 +97,10 @@ def run_design(project_path, out=None, *, force: bool = False) -> dict:
     curve = identifiability_curve(g, combined, design.order, n_simulations=project.n_simulations,
                                   phi=project.phi, correction=project.correction, seed=project.seed)
     elapsed = time.perf_counter() - start
+    # An earlier design's outputs that this one does not write (a plot of locations the candidates
+    # no longer have) go first, while design.json still records them.
+    for name in sorted(_earlier_outputs(out, project) - set(report.outputs(project))):
+        (out / name).unlink(missing_ok=True)
     write_text(out / MARKER, str(project.file.resolve()) + "\n")  # the folder is this project's from now on
     report.write_json(out, project, design, curve, widths, elapsed)
     report.write_csv(out, project, design, curve)

@@ -12,7 +12,7 @@ turn back up: each added sensor widens every sensor's bounds (Šidák).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -29,12 +29,38 @@ __all__ = ["Identifiability", "IdentifiabilityCurve", "expected_identifiability"
 
 
 def subset(combined: CombinedUncertainty, sensors) -> CombinedUncertainty:
-    """U_c of the locations ``sensors`` only (its marginals are all Eq. 5 needs)."""
+    """U_c of the locations ``sensors`` only, every per-sensor field kept.
+
+    The exact marginals, the sources (numerical convolution), the symmetric
+    and Gaussian flags and the names are taken for those locations, so
+    :func:`edmf_rs.threshold_bounds` gives each the bounds it has in the full
+    U_c (for the same per-sensor probability), the bounds the falsification
+    uses, and its warnings name the locations (their index in the full U_c
+    when it has no names).
+
+    Examples
+    --------
+    >>> import edmf_rs, scipy.stats as st
+    >>> u = edmf_rs.combine(measurement=[st.norm(0, [1.0, 2.0, 3.0])])
+    >>> sub = subset(u, [2, 0])
+    >>> sub.n_sensors, sub.std.tolist(), sub.sensor_names
+    (2, [3.0, 1.0], ('2', '0'))
+    """
     sensors = list(sensors)
+    at = np.asarray(sensors, dtype=np.int64)
+
+    def pick(values):
+        return None if values is None else tuple(values[j] for j in sensors)
+
+    names = tuple(combined.sensor_name(j) for j in sensors)
+    flags = {key: None if getattr(combined, key) is None else np.asarray(getattr(combined, key))[at].copy()
+             for key in ("symmetric", "gaussian")}
     if combined.exact:
-        return CombinedUncertainty(len(sensors), distribution=stats.norm(loc=combined.mean[sensors],
-                                                                         scale=combined.std[sensors]))
-    return CombinedUncertainty(len(sensors), samples=np.ascontiguousarray(combined.samples[:, sensors]))
+        return replace(combined, n_sensors=len(sensors), sensor_names=names, sources=pick(combined.sources),
+                       marginals=pick(combined.marginals), samples=None, **flags,
+                       distribution=stats.norm(loc=combined.mean[at], scale=combined.std[at]))
+    return replace(combined, n_sensors=len(sensors), sensor_names=names, sources=pick(combined.sources),
+                   marginals=pick(combined.marginals), samples=np.ascontiguousarray(combined.samples[:, at]), **flags)
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,7 +155,10 @@ class IdentifiabilityCurve:
 
 
 def _inputs(predictions, combined, n_simulations):
-    g = _checks.predictions_array(predictions)
+    # NaN would fail every comparison of Eq. 8: such an instance could never be a candidate, even when true.
+    g = _checks.finite_predictions(_checks.predictions_array(predictions),
+                                   "leave out the instances without predictions (expected identifiability has no "
+                                   "bin for NaN, unlike place_sensors' nan_policy='bin')")
     if not isinstance(combined, CombinedUncertainty):
         raise TypeError(f"combined: expected the CombinedUncertainty of all locations (edmf_rs.combine), "
                         f"got {type(combined).__name__}")

@@ -145,15 +145,12 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
         if budget is None:
             raise ValueError("k: expected a number of sensors (or a budget)")
         k = n_loc
-    k = _checks.index(k, "k")
+    k = _checks.count(k, "k", "a number of sensors")
     if not 1 <= k <= n_loc:
         raise ValueError(f"k: expected 1 <= k <= {n_loc} (the candidate locations), got {k}")
     if _checks.too_few_for_fixed(k, fixed):
         raise ValueError(f"k: expected at least the {len(fixed)} fixed sensors, got {k}")
-    if types is not None:
-        types = tuple(str(t) for t in types)
-        if len(types) != n_loc:
-            raise ValueError(f"types: expected one type per location ({n_loc}), got {len(types)}")
+    types = _checks.sensor_types(types, n_loc)
     tol = None if tolerance is None else _checks.non_negative(tolerance, "tolerance")
     type_of, quotas = _checks.quotas(max_per_type, types, fixed, n_loc)
     order, entropy, evaluations = _core.design_place(g, w, k, fixed, c, budget, tol, _checks.nan_bin(nan_policy),

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..engine.sampling import Sampling
 from ..engine.uncertainty import CombinedUncertainty
+from ..project.errors import call_user_code
 from ..project.inputs import import_function
 from ..project.identification import IdentificationTable, identification, load_toml
 from ..project.schema import (
@@ -69,6 +70,7 @@ class DesignProject(IdentificationTable):
     max_per_type: dict | None = None
     predictions_file: Path | None = None
     inputs: tuple[Path, ...] = ()  # the files it reads (never overwritten by an output)
+    model_ref: str = ""  # [model] function as written ("module:function"), for messages
 
     @property
     def costs(self) -> np.ndarray:
@@ -79,22 +81,65 @@ class DesignProject(IdentificationTable):
         (a read-only memory map, not copied, for a .npy predictions file)."""
         names = [c.name for c in self.candidates]
         if self.predictions_file is not None:
-            return _precomputed.load_predictions(self.predictions_file, len(names), str(self.file))
+            return _precomputed.load_predictions(self.predictions_file, names, str(self.file))
         parts = []
-        for theta in self.sampling.batches(self.batch_size):
-            out = self.model_function(theta, **self.model_options)
+        what = f"{self.file}: model.function = '{self.model_ref}'"
+        parameters = [q.name for q in self.sampling.parameters]
+
+        def describe(row) -> str:
+            return ", ".join(f"{n}={v:g}" for n, v in zip(parameters, row))
+
+        first = 0
+        for batch, theta in enumerate(self.sampling.batches(self.batch_size)):
+            last = first + theta.shape[0] - 1
+            # As `edmf-rs run` calls it: an exception (or sys.exit) is the model's failure, named, exit 1.
+            out = call_user_code(lambda t: self.model_function(t, **self.model_options), theta, what=what,
+                                 where=f"batch {batch} (instances {first}..{last})", first=first, describe=describe)
             parts.append(_columns(out, names, theta.shape[0], self.file))
+            first += theta.shape[0]
         g = np.concatenate(parts)
-        bad = np.flatnonzero(~np.isfinite(g).all(axis=0))
-        if bad.size:
+        bad = _checks.first_non_finite(g)
+        if bad is not None:
+            i, j = bad
             raise ProjectError(f"{self.file}: model.function: non-finite predictions at location "
-                               f"'{names[bad[0]]}'; expected finite predictions at every candidate")
+                               f"'{names[j]}' (first: {g[i, j]} at instance {i}); expected finite predictions at "
+                               "every candidate")
         return g
 
     def combined_uncertainty(self, predictions: np.ndarray) -> CombinedUncertainty:
-        """U_c of every candidate (Eq. 4); "measured" values are the mean predictions."""
-        return combine_sources(self.uncertainty, predictions.mean(axis=0), n_samples=self.n_samples,
-                               seed=self.seed)
+        """U_c of every candidate (Eq. 4), named by the candidates; "measured" values are the mean predictions.
+
+        Raises
+        ------
+        ProjectError
+            A location whose every source is ``relative_to = "measured"``
+            while its mean prediction is 0 (its U_c would be 0: thresholds of
+            zero width), or sources that cannot be combined; the message names
+            the file and the location.
+        """
+        mean = np.asarray(predictions.mean(axis=0), dtype=np.float64)
+        names = [c.name for c in self.candidates]
+        covering: list[list] = [[] for _ in names]
+        for src in self.uncertainty:
+            for j in src.sensors:
+                covering[j].append(src)
+        for j, sources in enumerate(covering):
+            if sources and mean[j] == 0 and all(s.relative_to == "measured" for s in sources):
+                listed = ", ".join(f"'{s.name}'" for s in sources)
+                raise ProjectError(
+                    f"{self.file}: uncertainty: location '{names[j]}' has only sources relative_to = \"measured\" "
+                    f"({listed}), and in a design they are relative to the mean prediction at the location, which "
+                    "is 0 there: its combined uncertainty would be zero (thresholds of zero width); give it a source "
+                    "with an absolute value (relative_to = \"absolute\", e.g. the sensor's noise), or leave the "
+                    "location out of the candidates")
+        try:
+            return combine_sources(self.uncertainty, mean, n_samples=self.n_samples, seed=self.seed,
+                                   sensor_names=names)
+        except ValueError as exc:
+            relative = any(s.relative_to == "measured" for s in self.uncertainty)
+            raise ProjectError(f"{self.file}: uncertainty: {exc}" + (
+                " (in a design, relative_to = \"measured\" is relative to the mean prediction at each location)"
+                if relative else "")) from None
 
 
 def _columns(out, names: list[str], n: int, label) -> np.ndarray:
@@ -174,6 +219,7 @@ def read_design_project(path: str | Path) -> DesignProject:
         uncertainty=sources, model_function=function, model_options=model.options if model else {},
         batch_size=model.batch_size if model else 0, k=k, budget=budget, tolerance=tolerance, n_simulations=n_sim,
         fixed=fixed, max_per_type=max_per_type, predictions_file=predictions_file,
+        model_ref=model.function if model else "",
         inputs=(path, candidates_file, *_precomputed.files(predictions_file, t.data.get("columns"))),
     )
 

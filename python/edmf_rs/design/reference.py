@@ -121,11 +121,12 @@ def candidate_counts(predictions, sensors, truth, residuals, low, high) -> np.nd
 def expected_identifiability(predictions, combined, sensors, n_simulations=1000, phi=0.95,
                              correction="sidak", seed=0) -> np.ndarray:
     """Candidate-set sizes of ``n_simulations`` simulated measurements on ``sensors``."""
-    from ..engine.thresholds import threshold_bounds
-    from .identifiability import subset
+    from ..engine.thresholds import sensor_probability, threshold_bounds
 
     sensors = list(sensors)
     g = np.asarray(predictions)
     truth, residuals = draw_simulations(combined, g.shape[0], n_simulations, seed)
-    t = threshold_bounds(subset(combined, sensors), phi=phi, correction=correction)
-    return candidate_counts(g, sensors, truth, residuals[:, sensors], t.low, t.high)
+    # Each sensor's bounds in the full U_c for the per-sensor probability of |S| sensors (Eq. 5).
+    p = sensor_probability(phi, len(sensors), correction)
+    t = threshold_bounds(combined, phi=p, correction="none")
+    return candidate_counts(g, sensors, truth, residuals[:, sensors], t.low[sensors], t.high[sensors])

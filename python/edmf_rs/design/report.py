@@ -3,6 +3,7 @@ report, each written atomically (a failed run never leaves a complete-looking fi
 
 from __future__ import annotations
 
+import csv
 import html
 import io
 import json
@@ -29,6 +30,18 @@ def rows(project, design, curve) -> list[dict]:
     return out
 
 
+def plot_names(project) -> list[str]:
+    """The plots :func:`write_plots` writes for ``project`` (the locations' only when some candidate has one)."""
+    located = any(c.location is not None for c in project.candidates)
+    return ["design_curves.png"] + (["design_locations.png"] if located else [])
+
+
+def outputs(project) -> list[str]:
+    """Every file a design of ``project`` writes into ``--out`` (design.json records them: a rerun
+    removes those an earlier design of the same project wrote and it does not)."""
+    return ["design.json", "design.csv", *plot_names(project), "report.html"]
+
+
 def write_json(out: Path, project, design, curve, widths, elapsed: float) -> None:
     doc = {
         "project": str(project.file), "name": project.name, "n_instances": int(design.n_instances),
@@ -42,15 +55,20 @@ def write_json(out: Path, project, design, curve, widths, elapsed: float) -> Non
             "Bertola, Papadopoulou, Vernay & Smith (2017) Sensors 17(12):2904",
             "Goulet & Smith (2013) J. Struct. Eng. 139(10)",
         ],
+        "outputs": outputs(project),
     }
     write_text(out / "design.json", json.dumps(doc, indent=2) + "\n")
 
 
 def write_csv(out: Path, project, design, curve) -> None:
+    """design.csv: one row per chosen sensor, CSV-quoted (a name may hold a comma or a quote)."""
     table = rows(project, design, curve)
     keys = list(table[0]) if table else ["step"]
-    lines = [",".join(keys)] + [",".join("" if r[k] is None else str(r[k]) for k in keys) for r in table]
-    write_text(out / "design.csv", "\n".join(lines) + "\n")
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(keys)
+    writer.writerows(["" if r[k] is None else str(r[k]) for k in keys] for r in table)
+    write_text(out / "design.csv", buf.getvalue())
 
 
 def _png(fig) -> bytes:
@@ -81,7 +99,7 @@ def write_plots(out: Path, project, design, curve) -> list[str]:
     ax[1].set(xlabel="number of sensors", ylabel="expected candidate-set size", title="Expected identifiability")
     ax[1].legend()
     write_bytes(out / "design_curves.png", _png(fig))
-    names = ["design_curves.png"]
+    names = plot_names(project)
     located = [c for c in project.candidates if c.location is not None]
     if located:
         cases = sorted({c.load_case for c in project.candidates})
@@ -100,7 +118,6 @@ def write_plots(out: Path, project, design, curve) -> list[str]:
         ax.set(xlabel="location", title="Chosen sensors (numbered in order of choice) among the candidates")
         ax.set_ylim(-0.7, len(lanes) - 0.3)
         write_bytes(out / "design_locations.png", _png(fig))
-        names.append("design_locations.png")
     return names
 
 

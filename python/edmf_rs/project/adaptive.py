@@ -31,10 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..adaptive.design import BUDGET_HINT, budget_problem
 from ..adaptive.result import AdaptiveResult
 from ..adaptive.waves import adaptive_falsify
 from ..stream.atomic import write_bytes, write_text
-from .result import Identification, _clean
+from .result import ADAPTIVE_FILES, Identification, _clean
+from .table import ProjectError
 
 KEYS = ("method", "budget", "n_initial", "wave_size", "n_screen", "c", "seed", "basis")
 
@@ -84,8 +86,13 @@ def adaptive_sampling(table, parameters) -> AdaptiveSampling:
     c = table.get("c", "number", 3.0, what="a number >= 0")
     if c < 0:
         raise table.error("c", "a number >= 0", c)
-    return AdaptiveSampling(parameters, budget=count("budget", 40 * p + 200), n_initial=count("n_initial", None, p + 1),
-                            wave_size=count("wave_size", None), n_screen=count("n_screen", 2**20),
+    budget = count("budget", 40 * p + 200)
+    n_initial, wave_size = count("n_initial", None, p + 1), count("wave_size", None)
+    problem = budget_problem(p, budget, n_initial, wave_size)
+    if problem is not None:
+        raise ProjectError(f"{table.error('budget', problem, budget)}; {BUDGET_HINT}")
+    return AdaptiveSampling(parameters, budget=budget, n_initial=n_initial,
+                            wave_size=wave_size, n_screen=count("n_screen", 2**20),
                             c=c, seed=table.get("seed", "seed", 0),
                             basis=table.get("basis", "choice", "auto", choices=("auto", "sensors", "pca")))
 
@@ -186,13 +193,16 @@ class AdaptiveIdentification(Identification):
         out["adaptive"] = _clean(self.adaptive.as_dict())
         return out
 
+    def output_files(self) -> tuple[str, ...]:
+        return (*super().output_files(), *ADAPTIVE_FILES)
+
     def write(self, out_dir) -> Path:
         from .report import plots as report_plots
 
         out = super().write(out_dir)
         png = report_plots._png(waves_figure(self))
         write_bytes(out / "adaptive_waves.png", png)
-        html = (out / "report.html").read_text()
+        html = (out / "report.html").read_text(encoding="utf-8")
         html = html.replace("<h2>Parameters</h2>", waves_section(self, png) + "<h2>Parameters</h2>", 1)
         (out / "summary.json").unlink(missing_ok=True)  # summary.json last: a complete folder
         write_text(out / "report.html", html)
@@ -216,8 +226,8 @@ def waves_section(ident, png: bytes) -> str:
             "<th>kept share of the domain</th><th>emulator validated</th><th>worst LOO error / threshold width</th>"
             "<th>sigma / width (95 %)</th><th class='l'>emulator problems</th></tr>")
     text = (f"<p>{r.n_runs} real model runs in {len(r.waves)} waves (stopped: {escape(r.stop_reason)}). The "
-            "emulators (one Gaussian process per sensor) only chose where to run the model; the candidates are "
-            "decided by Eq. 8 on the real model outputs.</p>")
+            f"emulators ({escape(r.emulator_description())}) only chose where to run the model; the candidates "
+            "are decided by Eq. 8 on the real model outputs.</p>")
     if r.confidence:
         text += f"<p>{escape(r.confidence)}</p>"
     img = base64.b64encode(png).decode()

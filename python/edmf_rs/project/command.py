@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from .plan import MAX_SECONDS, check_instances
-from .result import OUTPUT_FILES
+from .result import ADAPTIVE_FILES, OUTPUT_FILES
 from .run import Project
 from .schema import ProjectError
 
@@ -42,7 +42,8 @@ def _previous_run_of(out: Path, project: Project) -> bool:
         and summary.get("project", {}).get("name") == project.name
 
 
-def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, MARKER), what: str = "run") -> None:
+def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, *ADAPTIVE_FILES, MARKER),
+              what: str = "run") -> None:
     """Refuses an output folder the run must not write into (see the module docstring).
 
     Raises
@@ -95,11 +96,16 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     print(plan.describe().splitlines()[0], file=sys.stderr)
     # The folder is this project's from now on (its store and work folders are written during the
     # run), so a killed run's folder is recognised as an earlier run of the same project.
+    earlier = _previous_run_of(out_dir, project)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
     identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS, out=out_dir,
                                  workers=workers, scheduler=scheduler, retry_failures=retry_failures)
     identification.write(out_dir)
+    if earlier:  # an earlier run's output this run does not write would pass for this run's
+        for name in set(OUTPUT_FILES + ADAPTIVE_FILES) - set(identification.output_files()):
+            if (out_dir / name).is_file():
+                (out_dir / name).unlink()
     print(identification.summary())
     print(f"wrote {out_dir}/ (report.html, summary.json, candidates.parquet, thresholds.csv, plots) "
           f"in {time.perf_counter() - started:.1f} s")

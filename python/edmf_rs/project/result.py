@@ -33,6 +33,8 @@ BOUND_METHODS = {"exact": "exact", "convolution": "convolution"}  # any other me
 FIGURES = ("leave_one_out", "residuals", "scatter_matrix", "parallel_coordinates", "sensitivity")
 OUTPUT_FILES = (*(f"{name}.png" for name in FIGURES), "candidates.parquet", "thresholds.csv", "report.html",
                 "summary.json")
+#: Written by adaptive runs only, besides OUTPUT_FILES (``project.adaptive``).
+ADAPTIVE_FILES = ("adaptive_waves.png",)
 
 
 @dataclass(frozen=True, eq=False)
@@ -375,6 +377,10 @@ class Identification:
             "prognosis": [prog.as_dict() for prog in self.prognoses],
             "elapsed_seconds": round(self.elapsed, 3),
         })
+
+    def output_files(self) -> tuple[str, ...]:
+        """The names of the files `write` writes."""
+        return OUTPUT_FILES
 
     def write(self, out_dir: str | Path) -> Path:
         """Writes plots, candidates.parquet, thresholds.csv, report.html, then summary.json.
