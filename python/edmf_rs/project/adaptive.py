@@ -35,7 +35,8 @@ from ..adaptive.design import BUDGET_HINT, budget_problem
 from ..adaptive.result import AdaptiveResult
 from ..adaptive.waves import adaptive_falsify
 from ..stream.atomic import write_bytes, write_text
-from .result import ADAPTIVE_FILES, Identification, _clean
+from .format import json_safe
+from .result import ADAPTIVE_FILES, Identification
 from .table import ProjectError
 
 KEYS = ("method", "budget", "n_initial", "wave_size", "n_screen", "c", "seed", "basis")
@@ -134,7 +135,7 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
     from ..engine.thresholds import threshold_bounds
     from .candidates import CandidateWriter
     from .diagnostics import SensitivityTracker, leave_one_out
-    from .evaluation import checked_model, discount_failed_runs
+    from .evaluation import checked_model
     from .qoi import prognosis_of
     from .result import PlotSample
     from .schema import ProjectError
@@ -156,10 +157,10 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
     finally:
         if evaluator is not None:
             evaluator.close()
-    falsification = discount_failed_runs(result.falsification, project.command is not None)
     tracker = SensitivityTracker(thresholds, combined, project.measured)
     sample = PlotSample(result.n_runs)
     tracker(0, result.run_parameters, result.run_predictions)
+    falsification = tracker.discount(result.falsification)  # failed runs: neither candidates nor falsified
     sample(0, result.run_parameters, result.run_predictions)
     writer = CandidateWriter(None, project.parameter_names, project.sensor_names)  # a few hundred real runs
     writer.add(falsification.candidate_indices, falsification.candidate_parameters,
@@ -170,7 +171,7 @@ def run_adaptive(project, *, progress: bool = True, out=None, workers: int | Non
         prognoses = tuple(prognosis_of(project, spec, func, falsification.candidate_parameters)
                           for spec, func in project.prognosis)
     ident = Identification(project=project, combined=combined, thresholds=thresholds, falsification=falsification,
-                           leave_one_out=leave_one_out(falsification, project.sensor_names),
+                           leave_one_out=leave_one_out(falsification, project.sensor_names, tracker.nan_at),
                            sensitivity=tracker.finish(), candidate_set=candidates, prognoses=prognoses,
                            sample=sample.finish(falsification.candidate_mask), elapsed=time.perf_counter() - start,
                            evaluation=evaluator.stats() if evaluator is not None else None)
@@ -190,7 +191,7 @@ class AdaptiveIdentification(Identification):
 
     def summary_dict(self) -> dict:
         out = super().summary_dict()
-        out["adaptive"] = _clean(self.adaptive.as_dict())
+        out["adaptive"] = json_safe(self.adaptive.as_dict())
         return out
 
     def output_files(self) -> tuple[str, ...]:

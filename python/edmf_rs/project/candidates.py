@@ -330,6 +330,7 @@ class CandidateWriter:
     def finish(self) -> CandidateSet:
         """Closes the file; returns the candidate set (the file still under its temporary name)."""
         self.writer.close()
+        self.indices.close()  # candidate_indices() arrays map it on their own
         _, idx, par, pre = self.sample
         order = np.argsort(idx, kind="stable")
         ranges = {n: (float(lo), float(hi)) if self.count else None
@@ -344,6 +345,7 @@ class CandidateWriter:
         try:
             self.writer.close()
         finally:
+            self.indices.close()
             self.file.discard()
 
 

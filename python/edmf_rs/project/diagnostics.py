@@ -27,7 +27,7 @@ Sensitivity to phi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -36,6 +36,7 @@ from .. import _core
 from ..engine.result import FalsificationResult
 from ..engine.thresholds import Thresholds, sensor_probability
 from ..engine.uncertainty import CombinedUncertainty
+from .format import in_domain, plural
 
 #: Scale factors s at which the candidate set is counted (log-spaced; 0.5, 1 and 2 included).
 SCALES = np.unique(np.append(np.geomspace(0.1, 10.0, 201), [0.5, 1.0, 2.0]))
@@ -49,13 +50,20 @@ def phi_grid(phi: float) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class LeaveOneOut:
-    """Per-sensor falsification counts and the candidate set size without each sensor."""
+    """Per-sensor falsification counts and the candidate set size without each sensor.
+
+    The counts are of valid instances: an instance with a NaN prediction (a
+    diverged or failed model run) is invalid, neither a candidate nor
+    falsified; ``n_invalid`` counts them and ``nan_at`` their NaN per sensor.
+    """
 
     sensors: tuple[str, ...]
     n_instances: int
     n_candidates: int
     per_sensor_falsified: np.ndarray
     falsified_only_by: np.ndarray
+    n_invalid: int = 0
+    nan_at: np.ndarray | None = None
 
     @property
     def candidates_without_sensor(self) -> np.ndarray:
@@ -69,15 +77,18 @@ class LeaveOneOut:
         return tuple(int(i) for i in np.flatnonzero(self.candidates_without_sensor > 0))
 
 
-def leave_one_out(result: FalsificationResult, sensors) -> LeaveOneOut:
-    """Leave-one-sensor-out counts of a result computed with ``diagnostics=True``."""
+def leave_one_out(result: FalsificationResult, sensors, nan_at=None) -> LeaveOneOut:
+    """Leave-one-sensor-out counts of a result computed with ``diagnostics=True``
+    (its invalid instances taken out by `SensitivityTracker.discount`; ``nan_at``:
+    the invalid instances' NaN per sensor, `SensitivityTracker.nan_at`)."""
     if result.falsified_only_by is None:
         raise ValueError("result: expected a falsification run with diagnostics=True")
     sensors = tuple(sensors)
     if len(sensors) != result.n_sensors:
         raise ValueError(f"sensors: expected {result.n_sensors} names, got {len(sensors)}")
     return LeaveOneOut(sensors, result.n_instances, result.n_candidates,
-                       result.per_sensor_falsified, result.falsified_only_by)
+                       result.per_sensor_falsified, result.falsified_only_by, int(result.n_invalid or 0),
+                       None if nan_at is None else np.asarray(nan_at))
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,7 +100,7 @@ class Sensitivity:
     admitting any instance (exact when ``phi_exact``, else the first grid
     phi that admits one, or nan when none does). ``closest_*`` describe the
     instance needing the smallest s and ``closest_violated`` the sensors it
-    violates; ``fewest_violated`` is the fewest sensors any instance violates
+    violates; ``fewest_violated`` is the fewest sensors any valid instance violates
     at the identification's thresholds.
     """
 
@@ -113,7 +124,12 @@ class Sensitivity:
 
 class SensitivityTracker:
     """Accumulates :class:`Sensitivity` batch by batch: pass it as ``on_batch`` to
-    :func:`edmf_rs.falsify_model`. Memory does not grow with the instances."""
+    :func:`edmf_rs.falsify_model`. Memory does not grow with the instances.
+
+    It also counts what the invalid instances (a NaN prediction) add to the
+    falsification's per-sensor counts, which count a NaN as out of bounds,
+    so that `discount` can take them out.
+    """
 
     def __init__(self, thresholds: Thresholds, combined: CombinedUncertainty, measurements,
                  *, scales=SCALES, phis=None):
@@ -135,6 +151,11 @@ class SensitivityTracker:
         self.best_scale, self.best_phi = math.inf, math.inf
         self.closest = (None, None, None)
         self.fewest = None
+        n_m = self.y.size
+        self.nan_at = np.zeros(n_m, dtype=np.int64)  # NaN predictions per sensor, of invalid instances
+        self.invalid_falsified = np.zeros(n_m, dtype=np.int64)  # invalid instances out of bounds at each sensor
+        self.invalid_only = np.zeros(n_m, dtype=np.int64)  # ... and at no other
+        self.n_invalid = 0
 
     def __call__(self, offset: int, parameters: np.ndarray, predictions: np.ndarray) -> None:
         if predictions.shape[0] == 0:
@@ -152,8 +173,15 @@ class SensitivityTracker:
             self.best_scale = float(s_min[k])
             self.closest = (offset + k, parameters[k].copy(), predictions[k].astype(np.float64))
         violated = ((r < self.low) | (r > self.high)).sum(axis=1)
-        violated[invalid] = r.shape[1]
-        self.fewest = int(violated.min()) if self.fewest is None else min(self.fewest, int(violated.min()))
+        if not invalid.all():
+            least = int(violated[~invalid].min())
+            self.fewest = least if self.fewest is None else min(self.fewest, least)
+        if invalid.any():  # the falsification's verdict on them: out of bounds unless low <= r <= high
+            bad = ~((self.low <= r[invalid]) & (r[invalid] <= self.high))
+            self.n_invalid += int(invalid.sum())
+            self.nan_at += np.isnan(r[invalid]).sum(axis=0)
+            self.invalid_falsified += bad.sum(axis=0)
+            self.invalid_only += bad[bad.sum(axis=1) == 1].sum(axis=0)
         if self.exact:
             d = np.max(np.abs(r - self.mean) / self.sd, axis=1)
             phi_min = _phi_from_tail(2.0 * stats.norm.sf(d), r.shape[1], self.correction)
@@ -163,6 +191,15 @@ class SensitivityTracker:
         else:
             for k, (lo, hi) in enumerate(zip(self.grid_low, self.grid_high)):
                 self.at_phi[k] += int(np.count_nonzero(((lo <= r) & (r <= hi)).all(axis=1)))
+
+    def discount(self, result: FalsificationResult) -> FalsificationResult:
+        """``result`` with the invalid instances taken out of the per-sensor counts
+        (``per_sensor_falsified``, ``falsified_only_by``): they are neither
+        candidates nor falsified (failed model runs, NaN predictions)."""
+        if not self.n_invalid or result.per_sensor_falsified is None:
+            return result
+        return replace(result, per_sensor_falsified=result.per_sensor_falsified - self.invalid_falsified,
+                       falsified_only_by=result.falsified_only_by - self.invalid_only)
 
     def finish(self) -> Sensitivity:
         if self.exact:
@@ -211,17 +248,45 @@ def _monte_carlo_bounds(samples: np.ndarray, phis: np.ndarray, thresholds: Thres
     return np.array(keep), np.array(lows), np.array(highs)
 
 
+def invalid_text(loo: LeaveOneOut) -> str:
+    """The invalid instances (NaN predictions), in words; empty when there are none."""
+    if not loo.n_invalid:
+        return ""
+    at = ""
+    if loo.nan_at is not None and loo.nan_at.any():
+        hit = np.flatnonzero(loo.nan_at)
+        at = " at " + ", ".join(f"{loo.sensors[i]} ({loo.nan_at[i]:,})" for i in hit[:5]) + (
+            f" and {plural(hit.size - 5, 'other sensor')}" if hit.size > 5 else "")
+    if loo.n_invalid == loo.n_instances:
+        return (f"Every instance is invalid: the model's predictions hold NaN{at}, so no instance could be "
+                "compared with the measurements and none is a candidate or falsified; this says nothing about "
+                "the model class or the sensors: check the model (a diverged or failed run).")
+    return (f"{loo.n_invalid:,} of {plural(loo.n_instances, 'instance')} {'is' if loo.n_invalid == 1 else 'are'} "
+            f"invalid (NaN predictions{at}): neither candidates nor falsified, they are left out of the "
+            "per-sensor counts and of leaving one sensor out.")
+
+
 def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: float | None = None) -> list[str]:
     """What the counts say, in words, for the summary and the report."""
     names = loo.sensors
-    out = []
+    out = [invalid_text(loo)] if loo.n_invalid else []
+    if loo.n_invalid == loo.n_instances:
+        return out
+    every = "every valid instance" if loo.n_invalid else "every instance"
     if loo.n_candidates == 0:
         suspects = loo.suspects
         without = loo.candidates_without_sensor
-        if len(suspects) == 1:
+        if len(names) == 1:
+            out.append(
+                f"The only sensor, {names[0]}, falsifies {every}: check its measured value, the model class and "
+                "the uncertainties (there is no other sensor to compare it with, so leaving it out would leave "
+                "nothing to identify the parameters from)."
+            )
+        elif len(suspects) == 1:
             i = suspects[0]
             out.append(
-                f"Sensor {names[i]} alone falsifies the model class: ignoring it leaves {without[i]:,} candidates. "
+                f"Sensor {names[i]} alone falsifies the model class: ignoring it leaves "
+                f"{plural(without[i], 'candidate')}. "
                 f"{names[i]} may be faulty or an outlier: check it before concluding that the model class is "
                 f"wrong (to leave it out, add exclude = [\"{names[i]}\"] under [measurements])."
             )
@@ -230,9 +295,9 @@ def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: floa
             out.append(f"Ignoring any one of these sensors would leave candidates: {listed}. "
                        "Each alone falsifies the model class: check them for outliers or faults.")
         else:
-            fewest = f"at least {sensitivity.fewest_violated} sensors" if sensitivity and sensitivity.fewest_violated \
-                else "several sensors"
-            out.append(f"No single sensor explains the falsification: every instance violates {fewest}. "
+            fewest = f"at least {plural(sensitivity.fewest_violated, 'sensor')}" \
+                if sensitivity and sensitivity.fewest_violated else "several sensors"
+            out.append(f"No single sensor explains the falsification: {every} violates {fewest}. "
                        "The model class or its uncertainties need review (Sec. 3.3).")
         if sensitivity is not None and math.isfinite(sensitivity.smallest_scale):
             violated = ", ".join(names[i] for i in sensitivity.closest_violated)
@@ -248,7 +313,8 @@ def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: floa
             out.append(text + ".")
         return out
     share = 100.0 * loo.n_candidates / loo.n_instances
-    out.append(f"{loo.n_candidates:,} of {loo.n_instances:,} instances ({share:.3g} %) are candidate models.")
+    out.append(f"{loo.n_candidates:,} of {plural(loo.n_instances, 'instance')} ({share:.3g} %) "
+               f"{'is a candidate model' if loo.n_candidates == 1 else 'are candidate models'}.")
     i = int(np.argmax(loo.per_sensor_falsified))
     if loo.per_sensor_falsified[i]:
         out.append(f"Sensor {names[i]} falsifies the most instances ({loo.per_sensor_falsified[i]:,}).")
@@ -258,6 +324,24 @@ def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: floa
                    "(every instance they falsify, another sensor falsifies too).")
     if sensitivity is not None:
         half, double = sensitivity.candidates_at(0.5), sensitivity.candidates_at(2.0)
-        out.append(f"With the uncertainties halved the candidate set would hold {half:,} instances; "
+        out.append(f"With the uncertainties halved the candidate set would hold {plural(half, 'instance')}; "
                    f"doubled, {double:,}.")
+    return out
+
+
+def parameter_findings(parameters, ranges) -> list[str]:
+    """Parameters hardly identified, or whose candidates reach an end of the domain
+    (``ranges``: each parameter's candidate (min, max), or None)."""
+    out = []
+    for p, span in zip(parameters, ranges):
+        if span is None:
+            continue
+        lo, hi = p.to_unit(np.array(span))
+        if hi - lo > 0.9:
+            out.append(f"{p.name} is hardly identified: the candidates span {100 * (hi - lo):.0f} % of its domain.")
+        elif lo <= 0.01 or hi >= 0.99:
+            bound = in_domain(p.low if lo <= 0.01 else p.high, p.low, p.high)
+            edge = f"{'lower' if lo <= 0.01 else 'upper'} bound ({bound})"
+            out.append(f"The candidates reach the {edge} of {p.name}: its true value may lie outside the "
+                       "domain; consider widening it.")
     return out

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -126,14 +125,3 @@ def model_instances(project: Project, evaluator: Evaluator | None = None):
     if project.model_function is not None or evaluator is not None:
         return checked_model(project, evaluator), project.sampling.batches(project.model.batch_size), project.sampling.n
     return precomputed_instances(project)
-
-
-def discount_failed_runs(result, external: bool):
-    """The result with failed external runs taken out of the per-sensor falsified counts.
-
-    A failed run's row is all NaN, which the falsification counts against every
-    sensor; failed instances are neither candidates nor falsified (issue 14).
-    """
-    if external and result.n_invalid and result.per_sensor_falsified is not None:
-        return replace(result, per_sensor_falsified=result.per_sensor_falsified - result.n_invalid)
-    return result

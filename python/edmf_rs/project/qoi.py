@@ -79,8 +79,14 @@ class PrognosisStream:
         self.low, self.high = min(self.low, float(q.min())), max(self.high, float(q.max()))
 
     def finish(self) -> Prognosis:
-        """The prognosis over every candidate added (at least one)."""
+        """The prognosis over every candidate added (at least one); closes the file (its values stay mapped)."""
         spec = self.spec
         uncertainty = frozen(*spec.uncertainty) if spec.uncertainty is not None else None
-        return over_range(mapped(self.file, self.count, np.float64), self.low, self.high, uncertainty=uncertainty,
+        values = mapped(self.file, self.count, np.float64)
+        self.close()
+        return over_range(values, self.low, self.high, uncertainty=uncertainty,
                           probability=spec.probability, name=spec.name, unit=spec.unit)
+
+    def close(self) -> None:
+        """Closes the temporary file (unlinked: nothing is left on disk); `finish` closes it too."""
+        self.file.close()

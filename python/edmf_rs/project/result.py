@@ -5,13 +5,11 @@ summary.json holds a complete run)."""
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from ..engine.result import FalsificationResult
@@ -20,8 +18,8 @@ from ..engine.thresholds import Thresholds
 from ..engine.uncertainty import CombinedUncertainty
 from ..stream.atomic import write_bytes, write_text
 from .candidates import CandidateSet
-from .diagnostics import LeaveOneOut, Sensitivity, findings
-from .format import number
+from .diagnostics import LeaveOneOut, Sensitivity, findings, parameter_findings
+from .format import in_domain, json_safe, plural
 from .prognosis import Prognosis, predict
 from .sample import PLOT_SAMPLE, InstanceSample, PlotSample  # noqa: F401 (re-exported)
 
@@ -176,18 +174,8 @@ class Identification:
         >>> isinstance(ident.findings(), list)
         True
         """
-        out = findings(self.leave_one_out, self.sensitivity, self.thresholds.phi)
-        for p, span in zip(self.project.parameters, self.parameter_ranges().values()):
-            if span is None:
-                continue
-            lo, hi = p.to_unit(np.array(span))
-            if hi - lo > 0.9:
-                out.append(f"{p.name} is hardly identified: the candidates span {100 * (hi - lo):.0f} % of its domain.")
-            elif lo <= 0.01 or hi >= 0.99:
-                edge = f"lower bound ({p.low:g})" if lo <= 0.01 else f"upper bound ({p.high:g})"
-                out.append(f"The candidates reach the {edge} of {p.name}: its true value may lie outside the "
-                           "domain; consider widening it.")
-        return out
+        return findings(self.leave_one_out, self.sensitivity, self.thresholds.phi) + parameter_findings(
+            self.project.parameters, self.parameter_ranges().values())
 
     def mapping_text(self) -> str:
         """How the model's outputs were matched to the sensors, in words.
@@ -286,17 +274,21 @@ class Identification:
                    "monte_carlo": f"Monte Carlo ({p.n_samples:,} samples)"}
             combined = how[next(iter(methods))] if len(methods) == 1 else ", ".join(
                 f"{how[kind]} at {len(names)} sensor{'s' * (len(names) > 1)}" for kind, names in methods.items())
-        lines = [f"{p.name}: {r.n_instances:,} model instances, {r.n_sensors} sensors, phi = {p.phi:g} "
-                 f"({p.correction} correction), combined uncertainty {combined}"]
-        if r.model_class_falsified:
-            lines.append("candidate model set: EMPTY - every instance is falsified, so is the model class")
+        lines = [f"{p.name}: {plural(r.n_instances, 'model instance')}, {plural(r.n_sensors, 'sensor')}, "
+                 f"phi = {p.phi:g} ({p.correction} correction), combined uncertainty {combined}"]
+        if r.model_class_falsified and r.n_invalid == r.n_instances:
+            lines.append("candidate model set: EMPTY - every instance is invalid (NaN predictions), "
+                         "none could be compared with the measurements")
+        elif r.model_class_falsified:
+            lines.append(f"candidate model set: EMPTY - every {'valid ' if r.n_invalid else ''}instance is "
+                         "falsified, so is the model class")
         else:
-            lines.append(f"candidate model set: {r.n_candidates:,} instances "
+            lines.append(f"candidate model set: {plural(r.n_candidates, 'instance')} "
                          f"({100.0 * r.n_candidates / r.n_instances:.3g} %)")
             for param, (lo, hi) in zip(p.parameters, self.parameter_ranges().values()):
                 unit = f" [{param.unit}]" if param.unit else ""
-                lines.append(f"  {param.name}{unit}: {number(lo)} .. {number(hi)}  "
-                             f"(domain {number(param.low)} .. {number(param.high)})")
+                lo, hi, low, high = (in_domain(v, param.low, param.high) for v in (lo, hi, param.low, param.high))
+                lines.append(f"  {param.name}{unit}: {lo} .. {hi}  (domain {low} .. {high})")
         lines.append(f"guarantee: {self.thresholds.guarantee()}")
         if self.thresholds.monte_carlo:
             lines.append(f"borderline instances (verdict changes within 2 Monte Carlo SE of the bounds): "
@@ -306,7 +298,7 @@ class Identification:
             lines.append(f"failed model runs (neither candidates nor falsified, see failures.csv): "
                          f"{ev['failed_instances']:,}")
         if r.n_invalid and r.n_invalid != ev.get("failed_instances"):
-            lines.append(f"invalid instances (NaN predictions): {r.n_invalid:,}")
+            lines.append(f"invalid instances (NaN predictions; neither candidates nor falsified): {r.n_invalid:,}")
         if ev:
             lines.append(f"model evaluations: {ev['model_evaluations']:,}, reused from the prediction store: "
                          f"{ev['reused_evaluations']:,}")
@@ -335,7 +327,7 @@ class Identification:
         p, r, t = self.project, self.falsification, self.thresholds
         sens = self.sensitivity
         ranges = self.parameter_ranges()
-        return _clean({
+        return json_safe({
             "schema": SUMMARY_SCHEMA,
             "project": {"name": p.name, "file": p.file.name, "description": p.description},
             "instances": r.n_instances, "candidates": r.n_candidates, "invalid": r.n_invalid,
@@ -379,7 +371,21 @@ class Identification:
         })
 
     def output_files(self) -> tuple[str, ...]:
-        """The names of the files `write` writes."""
+        """The names of the files `write` writes.
+
+        Returns
+        -------
+        tuple of str
+            File names in the output folder (an adaptive run's adds its waves figure).
+
+        Examples
+        --------
+        >>> import edmf_rs
+        >>> from edmf_rs import cli
+        >>> ident = edmf_rs.Project.from_toml(cli.EXAMPLES / "cantilever.toml").run(progress=False)
+        >>> "summary.json" in ident.output_files(), "adaptive_waves.png" in ident.output_files()
+        (True, False)
+        """
         return OUTPUT_FILES
 
     def write(self, out_dir: str | Path) -> Path:
@@ -432,18 +438,3 @@ class Identification:
 def _se(values, n: int) -> list:
     """Per-sensor standard errors of the bounds (0 for exact bounds)."""
     return [0.0] * n if values is None else [float(v) for v in values]
-
-
-def _clean(obj):
-    """JSON-safe: NumPy scalars to Python, non-finite floats to null."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj

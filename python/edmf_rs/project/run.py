@@ -24,7 +24,7 @@ from ..engine.uncertainty import CombinedUncertainty
 from ..simulators import CommandModel
 from .candidates import CandidateWriter
 from .diagnostics import SensitivityTracker, leave_one_out
-from .evaluation import checked_model, discount_failed_runs, model_instances
+from .evaluation import checked_model, model_instances
 from .external import command_model, make_evaluator
 from .identification import IdentificationTable, identification_fields
 from .inputs import check_model_sensors, check_sensors, import_function
@@ -35,7 +35,7 @@ from .progress import Progress
 from .qoi import PrognosisStream, call_prognosis
 from .result import Identification, PlotSample
 from .schema import ModelSpec, PrognosisSpec, ProjectError, Sensor, read_spec
-from .sources import UncertaintySource, combine_sources, resolve_sources
+from .sources import UncertaintySource, check_relative, combine_sources, resolve_sources
 from .streaming import falsify_streaming
 
 __all__ = ["Project", "ProjectError"]
@@ -156,10 +156,12 @@ class Project(IdentificationTable):
             check_precomputed(spec.model, spec.parameters, all_sensors, sensors, label)
         prognosis = tuple((p, import_function(p.function, p.path, label, f"{p.key}.function"))
                           for p in spec.prognosis)
+        uncertainty = resolve_sources(spec.uncertainty, all_sensors, kept, label)
+        check_relative(uncertainty, sensors, label)
         return cls(
             **identification_fields(spec), parameters=spec.parameters, sampling=spec.sampling, sensors=sensors,
             excluded=tuple(s for i, s in enumerate(all_sensors) if i not in kept),
-            uncertainty=resolve_sources(spec.uncertainty, all_sensors, kept, label),
+            uncertainty=uncertainty,
             model=spec.model, model_function=model_function, n_model_columns=len(all_sensors), kept=kept,
             prognosis=prognosis, command=command,
             inputs=tuple(f for f in (spec.file, spec.measurements_file, spec.model.predictions, spec.model.parameters)
@@ -191,7 +193,8 @@ class Project(IdentificationTable):
         Raises
         ------
         ProjectError
-            If ``n_samples`` is too small for the per-sensor probability.
+            If ``n_samples`` is too small for the per-sensor probability, or
+            the sources cannot be combined at a sensor (named).
 
         Examples
         --------
@@ -204,10 +207,9 @@ class Project(IdentificationTable):
             combined = combine_sources(self.uncertainty, self.measured, n_samples=self.n_samples, seed=self.seed,
                                        streams=self.kept, sensor_names=self.sensor_names)
             threshold_bounds(combined, self.phi, self.correction) if not combined.exact else None
-        except ValueError as exc:
-            if "samples are needed" not in str(exc):
-                raise
-            raise ProjectError(f"{self.file}: identification.n_samples: {exc}") from None
+        except ValueError as exc:  # e.g. a relative source at a reading of 0, if Project was built by hand
+            key = "identification.n_samples" if "samples are needed" in str(exc) else "uncertainty"
+            raise ProjectError(f"{self.file}: {key}: {exc}") from None
         return combined
 
     @property
@@ -401,16 +403,23 @@ class Project(IdentificationTable):
             candidate_set = writer.finish()
         except BaseException:
             writer.abort()
+            for stream in streams:
+                stream.close()
             raise
         finally:
             if reporter is not None:
                 reporter.close()
-        result = discount_failed_runs(result, self.command is not None)
+        try:
+            prognoses = tuple(s.finish() for s in streams) if result.n_candidates else ()
+        finally:
+            for stream in streams:  # their temporary files, also without a candidate
+                stream.close()
+        result = tracker.discount(result)  # NaN rows (failed or diverged runs): neither candidates nor falsified
         mapping = (self.command is None and getattr(evaluator, "mapping", None)) or getattr(model, "mapping", None)
         return Identification(
             project=self, combined=combined, thresholds=thresholds, falsification=result,
-            leave_one_out=leave_one_out(result, self.sensor_names), sensitivity=tracker.finish(),
-            candidate_set=candidate_set, prognoses=tuple(s.finish() for s in streams) if result.n_candidates else (),
+            leave_one_out=leave_one_out(result, self.sensor_names, tracker.nan_at), sensitivity=tracker.finish(),
+            candidate_set=candidate_set, prognoses=prognoses,
             sample=sample.finish(), elapsed=time.perf_counter() - start, borderline=borderline.count,
             sensor_mapping=mapping, evaluation=evaluator.stats() if evaluator else None,
         )

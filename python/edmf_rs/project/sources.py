@@ -43,6 +43,7 @@ class UncertaintySource:
     relative_to: str
     sensors: tuple[int, ...]
     params: tuple = ()
+    key: str = ""  # where it is in the project file, e.g. "uncertainty[2]"
 
     def base(self):
         """The scalar frozen distribution of the value (or of the fraction of the measured value)."""
@@ -96,13 +97,39 @@ def resolve_sources(specs: tuple[UncertaintySpec, ...], sensors: tuple[Sensor, .
                                    f"(expected one of: {', '.join(s.name for s in sensors)})")
             covered = tuple(sorted({position[n] for n in spec.sensors if n in position}))
         result.append(UncertaintySource(spec.name, spec.kind, spec.distribution, spec.values,
-                                        spec.relative_to, covered, spec.params))
+                                        spec.relative_to, covered, spec.params, spec.key))
     uncovered = sorted(set(range(len(kept))) - {j for src in result for j in src.sensors})
     if uncovered:
         name = sensors[kept[uncovered[0]]].name
         raise ProjectError(f"{label}: uncertainty: sensor '{name}' is covered by no [[uncertainty]] source; "
                            "expected at least one (e.g. its measurement noise), else its thresholds have zero width")
     return tuple(result)
+
+
+def check_relative(sources: tuple[UncertaintySource, ...], sensors: tuple[Sensor, ...], label) -> None:
+    """Refuses sources relative to a measured value that cannot be: a fraction of 0
+    (no spread, when no other source covers the sensor) or an asymmetric family
+    (e.g. lognorm) at a reading <= 0. ``sensors`` are those the identification uses."""
+    for j, sensor in enumerate(sensors):
+        covering = [src for src in sources if j in src.sensors]
+        relative = [src for src in covering if src.relative_to == "measured"]
+        for src in relative:
+            if sensor.value <= 0 and not intervals.is_symmetric(src.base()):
+                raise ProjectError(
+                    f"{label}: {src.key or 'uncertainty'}: source '{src.name}' ({src.describe()}) is relative to "
+                    f"the measured value, and sensor '{sensor.name}' is measured as {sensor.value:g}: a "
+                    f"{src.distribution} fraction needs a positive measured value (only symmetric families stay "
+                    "in their family when it is <= 0); give that sensor a source with an absolute value "
+                    f"(relative_to = \"absolute\") or a symmetric distribution, or leave it out "
+                    f"(exclude = [\"{sensor.name}\"] under [measurements])")
+        if sensor.value == 0 and relative and len(relative) == len(covering):
+            listed = ", ".join(f"'{src.name}' ({src.key})" if src.key else f"'{src.name}'" for src in relative)
+            raise ProjectError(
+                f"{label}: uncertainty: sensor '{sensor.name}' is measured as 0, and every source covering it is "
+                f"relative to the measured value ({listed}): a fraction of 0 has no spread, so its combined "
+                "uncertainty would be zero and its threshold bounds of zero width; give it a source with an "
+                "absolute value (relative_to = \"absolute\", e.g. the sensor's noise), or leave it out "
+                f"(exclude = [\"{sensor.name}\"] under [measurements])")
 
 
 def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray, *,
@@ -119,14 +146,26 @@ def combine_sources(sources: tuple[UncertaintySource, ...], measured: np.ndarray
     n_m = len(measured)
     model: list[list] = [[] for _ in range(n_m)]
     measurement: list[list] = [[] for _ in range(n_m)]
+    names = tuple(sensor_names) if sensor_names is not None else None
     for src in sources:
-        for j, dist in src.per_sensor(measured):
+        try:
+            resolved = src.per_sensor(measured)
+        except ValueError as exc:
+            bad = [j for j in src.sensors if measured[j] <= 0]
+            at = f" at sensor '{names[bad[0]]}' ({measured[bad[0]]:g})" if bad and names is not None else ""
+            raise ValueError(f"source '{src.name}'{at}: {exc}") from None
+        for j, dist in resolved:
             (model if src.kind == "model" else measurement)[j].append(dist)
     streams = range(n_m) if streams is None else streams
     rngs = [np.random.default_rng([seed, int(k)]) for k in streams]
-    per_sensor = [combine(model=model[j], measurement=measurement[j], n_sensors=1, n_samples=n_samples,
-                          seed=rngs[j]) for j in range(n_m)]
-    names = tuple(sensor_names) if sensor_names is not None else None
+    per_sensor = []
+    for j in range(n_m):
+        try:
+            per_sensor.append(combine(model=model[j], measurement=measurement[j], n_sensors=1,
+                                      n_samples=n_samples, seed=rngs[j]))
+        except ValueError as exc:  # combined one sensor at a time: its messages say "sensor 0"
+            where = f"sensor '{names[j]}'" if names is not None else f"sensor {j}"
+            raise ValueError(f"{where}: {str(exc).replace(' at sensor 0', '')}") from None
     mean = np.array([c.mean[0] for c in per_sensor])
     std = np.array([c.std[0] for c in per_sensor])
     if all(c.exact for c in per_sensor):

@@ -7,7 +7,7 @@ import base64
 from html import escape
 
 from ... import __version__
-from ..format import number
+from ..format import in_domain, number, plural
 
 CSS = """
 body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 2em auto; max-width: 1100px;
@@ -72,12 +72,23 @@ def _verdict(ident) -> str:
 
 def _verdict_text(ident) -> str:
     r = ident.falsification
+    invalid = r.n_invalid or 0  # NaN predictions: neither candidates nor falsified
+    valid = r.n_instances - invalid
+    apart = (f" {invalid:,} of the {plural(r.n_instances, 'instance')} {'is' if invalid == 1 else 'are'} invalid "
+             "(NaN predictions: neither candidates nor falsified).") if invalid else ""
+    if r.model_class_falsified and not valid:
+        return (f"<div class='verdict bad'><b>No candidate model, and nothing falsified</b>: "
+                f"{'the' if r.n_instances == 1 else 'all'} {plural(r.n_instances, 'model instance')} "
+                f"{'is' if r.n_instances == 1 else 'are'} invalid (their predictions hold NaN), so none could be "
+                "compared with the measurements.</div>")
     if r.model_class_falsified:
-        return (f"<div class='verdict bad'><b>Model class falsified</b>: all {r.n_instances:,} model instances "
-                "are falsified by the measurements.</div>")
+        every = "the" if valid == 1 else "all"
+        return (f"<div class='verdict bad'><b>Model class falsified</b>: {every} "
+                f"{plural(valid, 'valid model instance' if invalid else 'model instance')} "
+                f"{'is' if valid == 1 else 'are'} falsified by the measurements.{apart}</div>")
     share = 100.0 * r.n_candidates / r.n_instances
-    return (f"<div class='verdict ok'><b>{r.n_candidates:,} candidate models</b> of {r.n_instances:,} "
-            f"instances ({share:.3g} %).</div>")
+    return (f"<div class='verdict ok'><b>{plural(r.n_candidates, 'candidate model')}</b> of "
+            f"{plural(r.n_instances, 'instance')} ({share:.3g} %).{apart}</div>")
 
 
 def _evaluation(ident) -> str:
@@ -118,8 +129,8 @@ def _fmt(v) -> str:
 def _parameters(ident) -> str:
     rows = []
     for param, span in zip(ident.project.parameters, ident.parameter_ranges().values()):
-        rows.append([param.name, param.unit, param.scale, param.low, param.high,
-                     span[0] if span else "–", span[1] if span else "–"])
+        shown = [in_domain(v, param.low, param.high, 5) for v in (param.low, param.high, *(span or ()))]
+        rows.append([param.name, param.unit, param.scale, *shown, *(() if span else ("–", "–"))])
     return _table(["parameter", "unit", "scale", "domain low", "domain high", "candidates min", "candidates max"],
                   rows, left=3)
 
@@ -146,7 +157,9 @@ def _thresholds(ident) -> str:
     html = _table(list(table.columns), rows, left=2, row_class=lambda k: "suspect" if k in suspects else "")
     html += ("<p class='notes'>measured = y; uc_mean, uc_sd: mean and standard deviation of the combined "
              "uncertainty U<sub>c</sub>; threshold_low, threshold_high: the bounds on the residual g(θ) − y "
-             "(Eqs. 5-6); the same columns as thresholds.csv.</p>")
+             "(Eqs. 5-6); the same columns as thresholds.csv."
+             + (" The counts leave out the invalid instances (NaN predictions)." if ident.falsification.n_invalid
+                else "") + "</p>")
     if ident.sensor_mapping is not None:
         html += f"<p>Model outputs matched to the sensors {escape(ident.mapping_text())}.</p>"
     excluded = ident.project.excluded
@@ -198,6 +211,9 @@ def _notes() -> str:
 <p><b>Falsification</b> (Eq. 8): an instance is a candidate iff T<sub>low,i</sub> ≤ g<sub>i</sub>(θ) − y<sub>i</sub>
 ≤ T<sub>high,i</sub> at every sensor; the bounds are the shortest intervals of U<sub>c,i</sub> holding the
 per-sensor probability (Eq. 5).</p>
+<p><b>Invalid instances</b>: an instance whose predictions hold NaN (a diverged model, or a failed run of an
+external program) cannot be compared with the measurements: it is neither a candidate nor falsified, and it is
+left out of the per-sensor counts, the leave-one-out counts and the sensitivity curves.</p>
 <p><b>Leave one sensor out</b>: candidates without sensor i = candidates + instances falsified by sensor i and no
 other. When there is no candidate but ignoring one sensor leaves some, that sensor alone falsifies the model class.</p>
 <p><b>Scale factor s</b>: thresholds scaled about their centre c = (T<sub>low</sub> + T<sub>high</sub>)/2,
