@@ -46,7 +46,7 @@ def test_dry_run_prints_the_plan_and_writes_nothing(tmp_path, capsys):
     path = cantilever(tmp_path)
     assert cli.main(["run", str(path), "--out", str(tmp_path / "out"), "--dry-run"]) == 0
     out = capsys.readouterr().out
-    assert "101 model instances (grid 101 = 101 instances), 1 parameters, 10 sensors" in out
+    assert "101 model instances (grid 101 = 101 instances), 1 parameter, 10 sensors" in out
     assert "model checked on 2 instances" in out and "estimated model time" in out
     assert "prognosis functions checked on 2 instances: tip deflection under 2F" in out
     assert not (tmp_path / "out").exists()

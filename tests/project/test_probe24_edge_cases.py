@@ -374,3 +374,10 @@ def test_a_run_leaves_no_file_open(tmp_path, reading):
         del ident
         gc.collect()
     assert not [str(w.message) for w in caught if issubclass(w.category, ResourceWarning)]
+
+
+def test_the_plan_of_one_instance_one_parameter_one_sensor_reads_in_the_singular():
+    from edmf_rs.engine.sampling import Parameter, grid, latin_hypercube
+
+    assert grid([Parameter("E", 1.0, 2.0)], [1]).describe() == "grid 1 = 1 instance"
+    assert latin_hypercube([Parameter("E", 1.0, 2.0)], 1, seed=0).describe().startswith("Latin hypercube, 1 instance,")

@@ -133,9 +133,9 @@ class Sampling:
 
     def describe(self) -> str:
         if self.method == "grid":
-            return f"grid {' x '.join(map(str, self.points))} = {self.n:,} instances"
+            return f"grid {' x '.join(map(str, self.points))} = {self.n:,} instance{'s' * (self.n != 1)}"
         kind = "Latin hypercube" if self.method == "lhs" else "Sobol' sequence"
-        return f"{kind}, {self.n:,} instances, seed {self.seed}"
+        return f"{kind}, {self.n:,} instance{'s' * (self.n != 1)}, seed {self.seed}"
 
 
 def _parameters(parameters: Sequence[Parameter]) -> tuple[Parameter, ...]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .format import number
+from .format import number, plural
 from .schema import ProjectError
 
 #: Instances above which a run needs ``--yes``.
@@ -70,8 +70,8 @@ class Plan:
 
     def describe(self) -> str:
         """The plan in a few lines, as ``edmf-rs run --dry-run`` prints it."""
-        lines = [f"{self.project}: {self.n_instances:,} model instances ({self.instances}), "
-                 f"{self.n_parameters} parameters, {self.n_sensors} sensors",
+        lines = [f"{self.project}: {plural(self.n_instances, 'model instance')} ({self.instances}), "
+                 f"{plural(self.n_parameters, 'parameter')}, {plural(self.n_sensors, 'sensor')}",
                  f"model: {self.model}, in batches of {self.batch_size:,}"]
         if self.seconds_per_instance is not None:
             lines.append(f"model checked on 2 instances: {number(self.seconds_per_instance * 1e3, 3)} ms per instance; "
