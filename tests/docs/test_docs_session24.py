@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 import pytest
-from api_pages import ROOT
+from api_pages import ROOT, resolve
 from scipy import stats
 
 import edmf_rs
@@ -319,19 +319,6 @@ def test_the_getting_started_page_gives_the_ci_command():
     assert command in README.read_text(encoding="utf-8")
 
 
-def _resolve(dotted: str):
-    parts = dotted.split(".")
-    for cut in range(len(parts), 0, -1):
-        try:
-            obj = importlib.import_module(".".join(parts[:cut]))
-        except ImportError:
-            continue
-        for attr in parts[cut:]:
-            obj = getattr(obj, attr)
-        return obj
-    raise ImportError(dotted)
-
-
 @pytest.mark.parametrize("page", ["README.md", "docs/index.md", "docs/method.md", "docs/project-file.md",
                                   "docs/porting.md"])
 def test_every_dotted_name_the_page_gives_exists(page):
@@ -340,7 +327,7 @@ def test_every_dotted_name_the_page_gives_exists(page):
     unresolved = []
     for name in sorted(names):
         try:
-            _resolve(name)
+            resolve(name)
         except (ImportError, AttributeError):
             unresolved.append(name)
     assert not unresolved, unresolved

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _core
 from . import convolution, intervals, mc_intervals
-from ._validate import check_seed, finite_vector, positive_int, probability
+from ._validate import check_seed, finite_vector, positive_int, probability, real_array
 
 CORRECTIONS = ("sidak", "bonferroni", "none")
 METHODS = ("convolution", "monte-carlo")
@@ -118,13 +118,7 @@ class Thresholds:
     def _standard_errors(values, name: str, n: int) -> np.ndarray:
         """``se_low``/``se_high``: n standard errors, each >= 0; +inf (an SE that
         could not be estimated, as the bootstrap reports with too few samples) is kept."""
-        try:
-            arr = np.asarray(values)
-        except (TypeError, ValueError) as exc:
-            raise TypeError(f"{name}: expected a 1-D array of {n} standard errors ({exc})") from None
-        if arr.dtype.kind not in "iuf":
-            raise TypeError(f"{name}: expected {n} standard errors (numbers), got dtype {arr.dtype}")
-        arr = np.array(arr, dtype=np.float64, copy=True)
+        arr = real_array(values, name, copy=True)
         if arr.ndim != 1 or arr.shape[0] != n:
             raise ValueError(f"{name}: expected {n} standard errors (one per sensor), got shape {arr.shape}")
         bad = np.flatnonzero(np.isnan(arr) | (arr < 0))

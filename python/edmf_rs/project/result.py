@@ -273,7 +273,7 @@ class Identification:
             how = {"exact": "exact", "convolution": "numerical convolution of the sources",
                    "monte_carlo": f"Monte Carlo ({p.n_samples:,} samples)"}
             combined = how[next(iter(methods))] if len(methods) == 1 else ", ".join(
-                f"{how[kind]} at {len(names)} sensor{'s' * (len(names) > 1)}" for kind, names in methods.items())
+                f"{how[kind]} at {plural(len(names), 'sensor')}" for kind, names in methods.items())
         lines = [f"{p.name}: {plural(r.n_instances, 'model instance')}, {plural(r.n_sensors, 'sensor')}, "
                  f"phi = {p.phi:g} ({p.correction} correction), combined uncertainty {combined}"]
         if r.model_class_falsified and r.n_invalid == r.n_instances:
