@@ -23,11 +23,14 @@ pub(crate) type Verdicts<'a> = (usize, &'a mut [u32], &'a mut [usize], &'a mut [
 /// candidate counts, its candidate words and its blocks' checksum slots.
 type Task<'a> = (usize, (((&'a mut [u32], &'a mut [usize]), &'a mut [u64]), &'a mut [Part]));
 
-/// Bytes of predictions a task reads, at least: the kernels pay a fixed cost
-/// per call (set-up, and the diagnostics' per-sensor totals), which a block
-/// of 1,024 short rows (20 KB for f32 rows of 5) does not amortise (`cargo
-/// bench -- falsify_short`; see `docs/performance.md`).
-pub(crate) const TASK_BYTES: usize = 128 << 10;
+/// Bytes of predictions a task reads, at least: each task pays a fixed cost
+/// (rayon's hand-over, the kernel's set-up, the diagnostics' per-sensor
+/// totals). A block of 1,024 short rows (20 KB for f32 rows of 5) did not
+/// amortise it (`cargo bench -- falsify_short`), nor did 128 KB, about 5 µs
+/// of reading a thread: through `falsify`, 1 MiB tasks ran short rows with
+/// diagnostics at 0.95-1.02 of the read floor where 128 KiB gave 0.86-0.98
+/// (AMD EPYC, Zen 4, 2 cores; `docs/performance.md`, "session 25").
+pub(crate) const TASK_BYTES: usize = 1 << 20;
 
 /// Blocks per task for rows of `n_m` values of `T`: enough for
 /// [`TASK_BYTES`]. A task of 64 blocks or fewer lies in at most two
