@@ -72,7 +72,9 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     Raises
     ------
     TypeError
-        If ``thresholds`` is not a `Thresholds` or the predictions are not numeric.
+        If ``thresholds`` is not a `Thresholds`, the predictions are not a
+        numeric array (a path or an iterator is refused), or ``client`` is
+        not a ``distributed.Client``.
     ValueError
         If the predictions are not 2-D with one column per measurement, or
         ``keep_violations`` is asked without ``diagnostics``.
@@ -88,7 +90,8 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
     [0, 2, 4]
     """
     y, thresholds = _checked(measurements, thresholds)
-    arr = predictions if isinstance(predictions, da.Array) else da.asarray(predictions)
+    client = _checked_client(client)
+    arr = _dask_array(predictions)
     if arr.ndim != 2 or arr.shape[1] != y.shape[0]:
         raise ValueError(
             f"predictions: expected a 2-D array with {y.shape[0]} columns (one per sensor, as in "
@@ -158,10 +161,12 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     Raises
     ------
     TypeError
-        If ``model`` is not callable, ``thresholds`` is not a `Thresholds`, or
-        ``parameters`` is neither an array nor an iterable of batches.
+        If ``model`` is not callable, ``thresholds`` is not a `Thresholds`,
+        ``parameters`` is neither an array nor an iterable of batches, or
+        ``client`` is not a ``distributed.Client``.
     ValueError
-        If an argument is out of range, batches differ in width, ``sensors``
+        If an argument is out of range, a Dask array of parameters has
+        chunks of unknown size, batches differ in width, ``sensors``
         does not name each measurement once, the model returns the wrong
         shape or NaN (with ``nan="raise"``), or its named outputs lack a
         sensor (naming the sensors on both sides).
@@ -186,6 +191,7 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     if keep_violations and not diagnostics:
         raise ValueError("keep_violations: expected False when diagnostics=False")
     y, thresholds = _checked(measurements, thresholds)
+    client = _checked_client(client)
     batch_size = positive_int(batch_size, "batch_size")
     names = tuple(sensor_match(sensors, y.shape[0]).sensors) if sensors is not None else None
     task = dask.delayed(_model_block, pure=True)
@@ -197,6 +203,9 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         arr = arr[:, None] if arr.ndim == 1 else arr
         if arr.ndim != 2:
             raise ValueError(f"parameters: expected an (N, p) array, got shape {arr.shape}")
+        if any(np.isnan(n) for n in arr.shape):  # each batch's first instance must be known
+            raise ValueError(f"parameters: expected a dask array of known chunk sizes, got shape {arr.shape} "
+                             "(e.g. after boolean indexing); call parameters.compute_chunk_sizes() first")
         arr = arr.rechunk({0: batch_size, 1: -1})
         offsets = np.concatenate([[0], np.cumsum(arr.chunks[0])[:-1]]).astype(int)
         blocks = arr.to_delayed().ravel()
@@ -288,6 +297,30 @@ def _checked(measurements, thresholds) -> tuple[np.ndarray, Thresholds]:
     if not isinstance(thresholds, Thresholds):
         raise TypeError(f"thresholds: expected edmf_rs.Thresholds, got {type(thresholds).__name__}")
     return finite_vector(measurements, "measurements", n=thresholds.n_sensors), thresholds
+
+
+def _dask_array(predictions) -> da.Array:
+    """``predictions`` as a Dask array; a path, an iterator or ragged rows are refused by name."""
+    if isinstance(predictions, da.Array):
+        return predictions
+    if isinstance(predictions, (str, bytes, os.PathLike)):
+        raise TypeError("predictions: expected a dask array or an array of shape (instances, sensors), got a path; "
+                        "stream a .npy file with edmf_rs.falsify, or pass da.from_array(np.load(path, mmap_mode='r'))")
+    if not (hasattr(predictions, "__array__") or isinstance(predictions, (list, tuple))):
+        raise TypeError("predictions: expected a dask array or an array of shape (instances, sensors), "
+                        f"got {type(predictions).__name__}")
+    try:
+        return da.asarray(predictions)
+    except (TypeError, ValueError) as exc:  # e.g. a list of blocks of different lengths
+        raise TypeError(f"predictions: expected a 2-D array of numbers ({exc})") from None
+
+
+def _checked_client(client):
+    """``client`` if it can run tasks like a ``distributed.Client`` (or None)."""
+    if client is not None and not all(callable(getattr(client, m, None)) for m in ("compute", "gather", "nthreads")):
+        raise TypeError("client: expected a distributed.Client (e.g. distributed.Client(\"tcp://scheduler:8786\")) "
+                        f"or None for the current scheduler, got {type(client).__name__}")
+    return client
 
 
 def _client(client):

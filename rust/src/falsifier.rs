@@ -19,11 +19,11 @@ use crate::digest::{Part, Pending, RowDigest, Value, PIECE_ROWS};
 use crate::error::{EdmfError, Result};
 use crate::kernel::{Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
+use crate::polling::run_polling;
 use crate::slab_tasks::{blocks_per_task, diagnose_parallel, screen_parallel};
 use crate::thresholds::Thresholds;
 use crate::violations::Violations;
 use rayon::ThreadPool;
-use crate::polling::run_polling;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Rows of a block, the unit of candidate counts and checksum parts; a rayon

@@ -9,14 +9,18 @@ replaced last, each atomically, so after a crash, SIGKILL, Ctrl-C or full
 disk the folder always describes a consistent prefix of the run, and running
 the same call again continues from its end, after re-reading the instances
 done and checking every one of them against their checksums (a guard against
-accidental change of the input, see ``rust/src/digest.rs``).
+accidental change of the input, see ``rust/src/digest.rs``). A file named
+like a part that no run wrote there (the user's, or another run's) is never
+overwritten or removed: the run stops first, naming it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import numbers
+import os
 import re
 import signal
 import threading
@@ -28,7 +32,7 @@ import numpy as np
 from .. import _core
 from . import chunks, parts
 from . import state as state_file
-from .folder_lock import FolderLock, folder_path
+from .folder_lock import LOCK, FolderLock, folder_path
 
 STATE = state_file.STATE
 FORMAT = state_file.FORMAT
@@ -129,9 +133,13 @@ class Checkpoint:
             raise ValueError(f"checkpoint: expected a folder, {self.folder} is a file")
         self.every, self.fields, self.input_name = float(every), fields, input_name
         self.fingerprint, self.rereadable = fp, rereadable
+        # Without it no run has been here, so no crash can have left a first save's parts.
+        self._visited = os.path.lexists(self.folder / LOCK)
         self._lock = FolderLock(self.folder)
         try:
             self._read_progress()
+            if not self.complete:  # before any work: the first save's names
+                self._refuse_foreign(parts.name(len(self.parts), name) for name in ("candidates",) + fields)
             unwritable = self._lock.unwritable
             if unwritable is not None and not self.complete:
                 # Refused now, not at the first save after all the work.
@@ -147,7 +155,14 @@ class Checkpoint:
 
     def _read_progress(self) -> None:
         state = self._read_state()
+        self._had_state = state is not None
         state = state or {}
+        self._pending: list[str] = state.get("pending", [])
+        # Part files this run may overwrite or remove: the ones a crash during
+        # a save can leave (the state's next names; with no state, the first
+        # save's where a run has locked the folder before), and its own.
+        self._claimable = set(self._pending) if self._had_state else {
+            parts.name(0, name) for name in ("candidates",) + self.fields} if self._visited else set()
         self.n_done: int = state.get("n_done", 0)
         self.parts: list[dict] = state.get("parts", [])
         self.tally: dict | None = state.get("tally")
@@ -162,6 +177,17 @@ class Checkpoint:
         self.base, self._base_tally = self.n_done, self.tally
         self._last = time.monotonic()
         self.broken = False
+
+    def _refuse_foreign(self, names, error=ValueError) -> None:
+        """Refuses to overwrite or remove a file named like a part that no run
+        saving in this folder wrote: another run's, or the user's (``names``:
+        the part files about to be written)."""
+        for name in names:
+            if name not in self._claimable and os.path.lexists(self.folder / name):
+                message = (f"checkpoint: {self.folder} holds {name}, which is no part of the run saved there "
+                           "(another run's file, or a user's) and which this run would overwrite: move it "
+                           "away, then run the same call again (or give another folder)")
+                raise error(errno.EEXIST, message) if error is CheckpointError else error(message)
 
     # -- reading -----------------------------------------------------------
 
@@ -369,10 +395,12 @@ class Checkpoint:
                                       + tally[1].astype(np.int64)).tolist(),
                 "n_invalid": int(base["n_invalid"]) + int(tally[2]),
             }
+        self._refuse_foreign((parts.name(len(self.parts), name) for name in files), CheckpointError)
         target, written, sums = None, [], {}
         try:
             for name, arr in files.items():
                 target = self.part_path(len(self.parts), name)
+                self._claimable.add(target.name)
                 sums[name] = save_npy(target, arr)
                 written.append(target)
             if files:
@@ -415,7 +443,8 @@ class Checkpoint:
         listed = {STATE} | {parts.name(k, name) for k in range(len(self.parts) + 1)
                             for name in ("candidates",) + self.fields}
         for name in self._pending:
-            (self.folder / name).unlink(missing_ok=True)
+            if name in self._claimable:  # else not left by a run: kept
+                (self.folder / name).unlink(missing_ok=True)
         temporary = re.compile(r"\.(?P<name>.+)\.[0-9]+\.[0-9a-f]{32}\.tmp")
         for path in self.folder.iterdir():
             m = temporary.fullmatch(path.name)
