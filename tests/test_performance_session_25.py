@@ -100,3 +100,14 @@ def test_the_readme_quotes_the_session_25_floor_tables():
             f"{min(by_level['avx2']):.2f}-{max(by_level['avx2']):.2f}; {len(missed)} of the 80 medians miss the "
             f"issue's targets, the most float32 rows of 10 (typical, diagnostics: AVX-512 {medians[worst]:.2f}, "
             f"AVX2 {medians[('avx2',) + worst[1:]]:.2f})") in readme
+
+
+def test_the_readme_quotes_the_session_25_checksum_run():
+    text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
+    section = [s for s in text.split("\n=== ") if "session 25 code (bb51d7b" in s.split("\n", 1)[0]][0]
+    mem = re.search(r"CPU on/off of the best times: median ([\d.]+)", section)[1]
+    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
+                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert (f"Session 25, with each task of the pool reading 1 MiB: {mem} in memory, {warm[0]} from the page cache "
+            f"(paired: {warm[1]}) and {cold[0]} from the disk (paired: {cold[1]}).") in readme
