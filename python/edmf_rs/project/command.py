@@ -42,6 +42,16 @@ def _previous_run_of(out: Path, project: Project) -> bool:
         and summary.get("project", {}).get("name") == project.name
 
 
+def mark(out: Path, project: Project) -> None:
+    """Creates the output folder and writes the marker naming the project file."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise ProjectError(f"--out {out}: cannot write the output folder ({exc.strerror or exc}); "
+                           "expected a folder this user can create and write to") from None
+
+
 def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, *ADAPTIVE_FILES, MARKER),
               what: str = "run") -> None:
     """Refuses an output folder the run must not write into (see the module docstring).
@@ -61,9 +71,16 @@ def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, 
         if target in inputs:
             raise ProjectError(f"--out {out}: the {what} would overwrite {target}, an input of {project.file.name}; "
                                "choose another output folder")
-    if out.is_dir() and any(out.iterdir()) and not force and not _previous_run_of(out, project):
-        raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier {what} of {project.file.name}; "
-                           "choose an empty or new folder, or pass --force to write into it")
+    if out.is_dir() and any(out.iterdir()) and not _previous_run_of(out, project):
+        if not force:
+            raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier {what} of "
+                               f"{project.file.name}; choose an empty or new folder, or pass --force to write into it")
+        if what == "run" and not (out / MARKER).is_file():  # no edmf-rs run's folder: its files are the user's
+            taken = sorted(name for name in (*outputs, "failures.csv") if name != MARKER and (out / name).exists())
+            if taken:
+                raise ProjectError(f"--out {out}: --force writes into the folder but never replaces files a {what} "
+                                   f"did not write, and it holds {', '.join(taken)}; move them or choose another "
+                                   "output folder")
 
 
 def run_cli(project_path: str | Path, out: str | Path | None = None, progress: bool = True, *,
@@ -85,9 +102,11 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     if scheduler is not None and getattr(project.sampling, "method", None) == "adaptive":
         raise ProjectError(f"--scheduler {scheduler}: not with method = \"adaptive\" in {project.file} (its waves "
                            "run the model in this process)")
+    if out is not None and not str(out).strip():
+        raise ProjectError("--out: expected an output folder, got an empty name")
     out_dir = Path(out) if out is not None else default_out(project_path)
     check_out(out_dir, project, force)
-    check_instances(project.n_instances, yes)
+    check_instances(project.n_instances, yes, where=f"{project.file}: sampling")
     plan = project.check(workers)
     if dry_run:
         print(plan.describe())
@@ -97,8 +116,7 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     # The folder is this project's from now on (its store and work folders are written during the
     # run), so a killed run's folder is recognised as an earlier run of the same project.
     earlier = _previous_run_of(out_dir, project)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
+    mark(out_dir, project)
     identification = project.run(progress=progress, max_seconds=None if yes else MAX_SECONDS, out=out_dir,
                                  workers=workers, scheduler=scheduler, retry_failures=retry_failures)
     identification.write(out_dir)
@@ -112,4 +130,4 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     return 0
 
 
-__all__ = ["check_out", "default_out", "run_cli"]
+__all__ = ["check_out", "default_out", "mark", "run_cli"]

@@ -41,7 +41,9 @@ def read_only_copy(theta: np.ndarray) -> np.ndarray:
 def _fails(call: Callable, rows: np.ndarray) -> bool:
     try:
         call(read_only_copy(rows))
-    except (Exception, SystemExit):
+    except KeyboardInterrupt:
+        raise
+    except BaseException:  # also sys.exit and the user's own BaseException subclasses
         return True
     return False
 
@@ -65,13 +67,15 @@ def call_user_code(call: Callable, theta: np.ndarray, *, what: str, where: str, 
     and the first failing row's parameters."""
     try:
         return call(read_only_copy(theta))
-    except (Exception, SystemExit) as exc:
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # sys.exit and the user's own BaseException subclasses too
         if getattr(exc, "names_its_instances", False):
             raise  # e.g. stopped external runs: already named, and re-running them would run the solver again
         if isinstance(exc, SystemExit):
             raised = f"called sys.exit({exc.code!r})"
         else:
-            raised = f"raised {type(exc).__name__}: {exc}"
+            raised = f"raised {type(exc).__name__}" + (f": {exc}" if str(exc) else "")
         k = first_failing(call, theta) if theta.shape[0] > 1 else 0
         if k is None:
             culprit = f"no single {unit} of these fails on its own (first: {describe(theta[0])})"

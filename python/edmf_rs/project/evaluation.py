@@ -84,6 +84,8 @@ class CheckedModel:
         self.instances += theta.shape[0]
         try:
             out = self.match(out, theta.shape[0])
+            if getattr(out, "dtype", None) == np.bool_:  # True/False: a comparison, not a prediction
+                raise TypeError("boolean predictions")
             out = real_array(out, "model", copy=False)  # complex: refused, not cast to its real part
         except SensorMismatch as exc:
             raise ProjectError(f"{self.where}: {exc}") from None

@@ -82,10 +82,11 @@ class Plan:
         return "\n".join(lines)
 
 
-def check_instances(n: int, yes: bool) -> None:
-    """Refuses a run of more than :data:`MAX_INSTANCES` instances without ``yes``."""
+def check_instances(n: int, yes: bool, where: str = "") -> None:
+    """Refuses a run of more than :data:`MAX_INSTANCES` instances without ``yes``
+    (``where``: the project file and key, for the message)."""
     if n > MAX_INSTANCES and not yes:
-        raise RunTooLarge(f"the run has {n:,} model instances, more than {MAX_INSTANCES:,}; "
+        raise RunTooLarge(f"{where + ': ' if where else ''}the run has {n:,} model instances, more than {MAX_INSTANCES:,}; "
                           "rerun with --yes to go ahead (or reduce [sampling])")
 
 

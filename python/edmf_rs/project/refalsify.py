@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..simulators.store import SCHEMA, PredictionStore, store_key
 from ..stream.atomic import write_text
-from .command import MARKER, check_out, default_out
+from .command import check_out, default_out, mark
 from .external import project_fingerprint
 from .run import Project
 from .schema import ProjectError
@@ -195,8 +195,7 @@ def falsify_cli(store: str | Path, project_path: str | Path, out: str | Path | N
     folder = find_store(store, project)
     out_dir = Path(out) if out is not None else default_out(project_path)
     check_out(out_dir, project, force)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / MARKER).write_text(str(project.file.resolve()) + "\n", encoding="utf-8")
+    mark(out_dir, project)
     print(f"falsifying {project.n_instances:,} instances of {project.file.name} from {folder} "
           "(no model evaluation)", file=sys.stderr)
     identification = project.run(progress=progress, out=out_dir, store=folder)
