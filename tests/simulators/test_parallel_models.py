@@ -2,7 +2,14 @@
 processes) and external programs (threads waiting on subprocesses)."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
 import textwrap
+import time
+
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -63,3 +70,44 @@ def test_evaluator_in_memory_without_an_output_folder(folder):
     finally:
         ev.close()
     assert ev.stats()["prediction_store"] is None and ev.model_evaluations == 3
+
+
+def test_ctrl_c_stops_the_worker_processes_of_a_slow_model(folder, tmp_path):
+    """SIGINT to the run alone (not its workers): exit 130 at once, the
+    workers stopped, not waited for (they would sleep ten minutes)."""
+    (folder / "slow.py").write_text(textwrap.dedent("""
+        import os, time
+        def predict(theta):
+            open(f"started-{os.getpid()}", "w").close()
+            time.sleep(600)
+    """))
+    project = write_project(folder, 'function = "slow:predict"\nworkers = 2\nbatch_size = 16', n=32)
+    proc = subprocess.Popen([sys.executable, "-m", "edmf_rs", "run", str(project), "--out", str(tmp_path / "out"),
+                             "--no-progress"], cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.monotonic() + 120
+    while len(list(folder.glob("started-*"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    workers = [int(p.name.split("-")[1]) for p in folder.glob("started-*")]
+    assert len(workers) == 2
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)  # a hang fails here, long before the model's ten minutes
+    except subprocess.TimeoutExpired:
+        for pid in (proc.pid, *workers):
+            os.kill(pid, signal.SIGKILL)
+        raise
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    deadline = time.monotonic() + 60  # SIGTERM takes effect asynchronously
+    while any(map(_running, workers)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(map(_running, workers))
+
+
+def _running(pid: int) -> bool:
+    """Whether process `pid` exists and is not a zombie (one waiting to be reaped has stopped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import multiprocessing
+import signal
 import sys
 from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
@@ -37,6 +38,13 @@ def _function(ref: str, path: str):
             func = getattr(func, part)
         _FUNCTIONS[key] = func
     return _FUNCTIONS[key]
+
+
+def _leave_interrupts_to_the_parent() -> None:
+    """Worker set-up: Ctrl-C reaches every process of the terminal's group; the
+    parent stops the workers (`FunctionPool.terminate`), so a worker prints no
+    traceback of its own."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _call(ref: str, path: str, options: dict, theta: np.ndarray):
@@ -70,7 +78,9 @@ class FunctionPool:
 
     def __init__(self, ref: str, path: str | Path, options: dict, workers: int):
         self.ref, self.path, self.options, self.workers = ref, str(Path(path).resolve()), dict(options), workers
-        self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+        self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=_leave_interrupts_to_the_parent)
+        self._terminated = False
 
     def __call__(self, theta: np.ndarray, first: int) -> np.ndarray:
         return np.concatenate([np.asarray(out, dtype=np.float64) for _, out in self.pieces(theta, first)])
@@ -86,9 +96,24 @@ class FunctionPool:
                 f"a worker process evaluating model.function = '{self.ref}' on instances {first}.."
                 f"{first + len(theta) - 1} died (killed, out of memory or crashed); the instances before "
                 "them are kept in the prediction store") from None
+        except BaseException:  # Ctrl-C while the workers run: waiting for a slow model would hang
+            self.terminate()
+            raise
+
+    def terminate(self) -> None:
+        """Stops the workers now; the calls they were running are lost."""
+        stop = getattr(self.pool, "terminate_workers", None)  # Python 3.14
+        if stop is not None:
+            stop()
+        else:
+            for process in list((getattr(self.pool, "_processes", None) or {}).values()):
+                process.terminate()
+            self.pool.shutdown(wait=False, cancel_futures=True)
+        self._terminated = True
 
     def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        if not self._terminated:
+            self.pool.shutdown(wait=True, cancel_futures=True)
 
     def __enter__(self):
         return self
