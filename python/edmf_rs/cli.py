@@ -69,7 +69,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="output folder (default: next to the project file; ./NAME for --example); refused "
                           "when not empty unless it holds an earlier run of the same project")
     run.add_argument("--force", action="store_true",
-                     help="write into a non-empty --out folder (inputs of the project are never overwritten)")
+                     help="write into a non-empty --out folder (inputs of the project and files a run did not "
+                          "write are never overwritten)")
     run.add_argument("--dry-run", action="store_true",
                      help="validate, check the model on two instances, print the plan and estimate; "
                           "run nothing else and write nothing")

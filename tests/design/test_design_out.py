@@ -41,9 +41,15 @@ def test_a_folder_of_other_files_is_refused_unless_force(tiny_project, tmp_path,
     first = (out / "design.csv").read_text()
     assert main(["design", str(tiny_project), "--out", str(out)]) == 0
     assert (out / "design.csv").read_text() == first
-    # --force writes into the user's folder.
+    # --force writes into the user's folder, never over a file of the user's named like an output.
+    capsys.readouterr()
+    assert main(["design", str(tiny_project), "--out", str(mine), "--force"]) == 2
+    assert "never replaces files a design did not write, and it holds report.html" in capsys.readouterr().err
+    assert (mine / "report.html").read_text() == "my report"
+    (mine / "report.html").rename(mine / "my-report.html")
     assert main(["design", str(tiny_project), "--out", str(mine), "--force"]) == 0
     assert "<!doctype html>" in (mine / "report.html").read_text()
+    assert (mine / "my-report.html").read_text() == "my report"
 
 
 def test_an_input_is_never_overwritten_even_with_force(tiny_project, monkeypatch, capsys):

@@ -61,7 +61,8 @@ def check_design_out(out: Path, project: DesignProject, force: bool) -> None:
         ``out`` is a file; a non-empty folder that holds no earlier design of
         this project (without ``force``); or an output would replace an input.
     """
-    check_out(out, project, force or _earlier_design(out, project), outputs=OUTPUT_FILES, what="design")
+    check_out(out, project, force or _earlier_design(out, project), outputs=(*report.outputs(project), MARKER),
+              what="design")
 
 
 def _earlier_outputs(out: Path, project: DesignProject) -> set[str]:

@@ -75,7 +75,7 @@ def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, 
         if not force:
             raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier {what} of "
                                f"{project.file.name}; choose an empty or new folder, or pass --force to write into it")
-        if what == "run" and not (out / MARKER).is_file():  # no edmf-rs run's folder: its files are the user's
+        if not (out / MARKER).is_file():  # no edmf-rs run's folder: its files are the user's
             taken = sorted(name for name in (*outputs, "failures.csv") if name != MARKER and (out / name).exists())
             if taken:
                 raise ProjectError(f"--out {out}: --force writes into the folder but never replaces files a {what} "
@@ -110,7 +110,7 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     plan = project.check(workers)
     if dry_run:
         print(plan.describe())
-        print(f"outputs: {out_dir}/ (dry run: nothing evaluated or written)")
+        print(f"outputs: {out_dir}/ (dry run: the model checked on two instances, nothing else evaluated, no output written)")
         return 0
     print(plan.describe().splitlines()[0], file=sys.stderr)
     # The folder is this project's from now on (its store and work folders are written during the
