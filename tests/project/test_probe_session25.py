@@ -102,3 +102,32 @@ def test_boolean_predictions_are_refused(tmp_path, capsys, dry_run):
     extra = ["--dry-run"] if dry_run else ["--out", str(tmp_path / "out"), "--no-progress"]
     assert cli.main(["run", str(path), *extra]) == 2
     assert f"{path}: model.function = 'model:booleans': returned ndarray of dtype bool" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("header, hint", [
+    ("sensor;value", "read as one column 'sensor;value': separate the columns with ','"),
+    ("Sensor,Value", "the column names are lower case: sensor, value"),
+    ("name,reading", None),
+])
+def test_a_measurements_header_says_why_it_lacks_sensor_and_value(tmp_path, header, hint):
+    from edmf_rs.project.measurements import read_measurements
+    from edmf_rs.project.schema import ProjectError
+
+    f = tmp_path / "m.csv"
+    f.write_text(f"{header}\nD1{header[6] if len(header) > 6 else ','}0.5\n")
+    with pytest.raises(ProjectError, match="line 1: expected a header with columns sensor,value") as exc:
+        read_measurements(f)
+    assert (hint in str(exc.value)) if hint else str(exc.value).endswith("missing sensor, value")
+
+
+def test_one_idle_sensor_is_named_in_the_singular():
+    import numpy as np
+    import edmf_rs
+    from edmf_rs.project.diagnostics import findings, leave_one_out
+
+    # Row 0 a candidate; S1 alone falsifies row 1, S3 alone row 3; S2 only with S1 (row 2).
+    g = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [5.0, 5.0, 0.0], [0.0, 0.0, 5.0]])
+    result = edmf_rs.falsify(g, np.zeros(3), edmf_rs.Thresholds(low=[-1.0] * 3, high=[1.0] * 3), progress=False)
+    text = " ".join(findings(leave_one_out(result, ["S1", "S2", "S3"])))
+    assert ("Leaving out S2 would not change the candidate set (every instance it falsifies, another sensor "
+            "falsifies too).") in text

@@ -320,7 +320,9 @@ def findings(loo: LeaveOneOut, sensitivity: Sensitivity | None = None, phi: floa
         out.append(f"Sensor {names[i]} falsifies the most instances ({loo.per_sensor_falsified[i]:,}).")
     idle = [names[j] for j in np.flatnonzero(loo.falsified_only_by == 0)]
     if idle and len(idle) < len(names):
-        out.append(f"Leaving out any one of {', '.join(idle)} would not change the candidate set "
+        out.append(f"Leaving out {idle[0]} would not change the candidate set (every instance it falsifies, "
+                   "another sensor falsifies too)." if len(idle) == 1 else
+                   f"Leaving out any one of {', '.join(idle)} would not change the candidate set "
                    "(every instance they falsify, another sensor falsifies too).")
     if sensitivity is not None:
         half, double = sensitivity.candidates_at(0.5), sensitivity.candidates_at(2.0)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import codecs
 import csv
 import io
+import re
 from pathlib import Path
 
 from .inputs import cell_number, regular_file
@@ -72,7 +73,7 @@ def read_measurements(file: Path, key: str = "measurements.file", label: str | N
     missing = [c for c in ("sensor", "value") if c not in header]
     if missing:
         raise ProjectError(f"{file}: line 1: expected a header with columns sensor{delimiter}value "
-                           f"(optional: type, location, unit), missing {', '.join(missing)}")
+                           f"(optional: type, location, unit), missing {', '.join(missing)}{_hint(header)}")
     unknown = [c for c in header if c not in COLUMNS]
     twice = sorted({c for c in header if header.count(c) > 1})
     if unknown or twice:
@@ -111,3 +112,15 @@ def _number(text, file: Path, line: int, column: str, required: bool, decimal: s
                                f"(decimal = \",\"), got {text!r}")
         text = text.replace(",", ".")
     return cell_number(text, file, line, column, COMMA_HINT)
+
+
+def _hint(header: list[str]) -> str:
+    """Why a header lacks sensor and value, where the cause is plain: another
+    separator (``decimal = ","`` reads ``;``-separated files) or capitals."""
+    cells = [c.strip().lower() for line in header for c in re.split(r"[;,\t]", line)]
+    if {"sensor", "value"} <= set(cells):
+        if len(header) == 1:
+            return (f" (read as one column '{header[0]}': separate the columns with ',', or with ';' and "
+                    "decimal = \",\" in [measurements])")
+        return " (the column names are lower case: sensor, value)"
+    return ""
