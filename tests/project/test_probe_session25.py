@@ -131,3 +131,13 @@ def test_one_idle_sensor_is_named_in_the_singular():
     text = " ".join(findings(leave_one_out(result, ["S1", "S2", "S3"])))
     assert ("Leaving out S2 would not change the candidate set (every instance it falsifies, another sensor "
             "falsifies too).") in text
+
+
+def test_a_sensor_excluded_twice_is_refused_by_name(tmp_path, capsys):
+    project = linear(tmp_path)
+    text = project.read_text()
+    assert "[measurements]" in text
+    project.write_text(text.replace("[measurements]\n", "[measurements]\nexclude = [\"S1\", \"S1\"]\n", 1))
+    assert cli.main(["run", str(project), "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "measurements.exclude: expected each sensor name once (S1 more than once), got ['S1', 'S1']" in err

@@ -335,6 +335,9 @@ def _measurements(root: Table, base: Path):
     exclude = t.get("exclude", "list", [], what="a list of sensor names")
     if not all(isinstance(s, str) for s in exclude):
         raise t.error("exclude", "a list of sensor names", exclude)
+    twice = sorted({s for s in exclude if exclude.count(s) > 1})
+    if twice:
+        raise t.error("exclude", f"each sensor name once ({', '.join(twice)} more than once)", exclude)
     file = base / t.get("file", "str", what="a CSV file") if "file" in t.data else None
     sensors = []
     for s in inline:
