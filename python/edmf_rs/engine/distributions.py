@@ -77,6 +77,10 @@ def distribution(name: str, params: dict):
     >>> round(float(distribution("triangular", {"low": -1, "mode": 0, "high": 1}).var()) * 6, 9)  # (a²+b²+c²-ab-ac-bc)/18
     1.0
     """
+    if not isinstance(name, str):
+        raise TypeError(f"name: expected the name of a distribution (a string), got {type(name).__name__}")
+    if not isinstance(params, dict):
+        raise TypeError(f"params: expected a dict of parameter name -> number, got {type(params).__name__}")
     accepted = accepted_parameters(name)
     listed = ", ".join(accepted)
     for key, value in params.items():

@@ -86,23 +86,26 @@ def shortest_interval(dist, probability: float) -> tuple[float, float]:
     """Shortest interval holding ``probability`` of a scalar frozen distribution."""
     if dist.dist.name in SYMMETRIC_UNIMODAL:
         tail = 0.5 * (1.0 - probability)  # Eq. 6
-        return float(dist.ppf(tail)), float(dist.ppf(1.0 - tail))
+        return float(dist.ppf(tail)), float(dist.isf(tail))  # isf: 1 - tail would round a small tail
+
+    # The upper bound through isf of the upper tail mass 1 - p - a (1 - p is exact for p >= 1/2):
+    # ppf(a + p) loses the digits of a small upper tail when p is close to 1.
+    span = 1.0 - probability
 
     def width(a: float) -> float:
-        w = dist.ppf(a + probability) - dist.ppf(a)
+        w = dist.isf(span - a) - dist.ppf(a)
         return float(w) if np.isfinite(w) else np.inf
 
     # A coarse scan guards against local minima; Brent's method then refines.
-    span = 1.0 - probability
     grid = np.linspace(0.0, span, 201)[1:-1]
     widths = np.array([width(a) for a in grid])
     k = int(np.argmin(widths))
     lo = grid[k - 1] if k > 0 else 0.0
     hi = grid[k + 1] if k + 1 < grid.size else span
     best = optimize.minimize_scalar(width, bounds=(lo, hi), method="bounded",
-                                    options={"xatol": 1e-12 * max(span, 1e-300) + 1e-15})
+                                    options={"xatol": 1e-12 * max(span, 1e-300)})  # relative to the tail mass
     a = best.x if best.fun <= widths[k] else grid[k]
-    return float(dist.ppf(a)), float(dist.ppf(a + probability))
+    return float(dist.ppf(a)), float(dist.isf(span - a))
 
 
 def shortest_intervals(dists, probability: float) -> tuple[np.ndarray, np.ndarray]:

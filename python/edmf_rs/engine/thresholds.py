@@ -337,8 +337,10 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
         if combined.dist.name in intervals.SYMMETRIC_UNIMODAL:
             # Eq. 6 for every sensor at once; elementwise the same ppf as the per-sensor call.
             tail = 0.5 * (1.0 - p)
+            # The upper bound through isf(tail), not ppf(1 - tail): 1 - tail rounds away digits of a
+            # small tail (p close to 1 at many sensors), which moved the bound by ~1e-10 of the width.
             low = np.broadcast_to(combined.ppf(tail), shape).astype(np.float64)
-            high = np.broadcast_to(combined.ppf(1.0 - tail), shape).astype(np.float64)
+            high = np.broadcast_to(combined.isf(tail), shape).astype(np.float64)
             return Thresholds(low, high, phi=phi, probability=p, correction=correction,
                               gaussian=combined.dist.name == "norm", method=("exact",) * shape[0])
         combined = intervals.split(combined, shape[0])
@@ -358,6 +360,7 @@ def threshold_bounds(combined, phi: float = 0.95, correction: str = "sidak", *,
     n, n_m = samples.shape
     p = sensor_probability(phi, n_m, correction)
     if estimator == "shortest":
+        mc_intervals.warn_thin_tails(range(n_m), p, n, confidence)  # as for combine() samples
         low, high = _core.shortest_intervals(samples, p)
         return Thresholds(low, high, phi=phi, probability=p, correction=correction, gaussian=False,
                           method=("shortest-plain",) * n_m, n_samples=n)
