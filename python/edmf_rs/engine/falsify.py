@@ -7,7 +7,8 @@ import os
 import numpy as np
 
 from .. import _core
-from ..stream.checkpoint import every_seconds, fingerprint
+from ..stream.checkpoint import every_seconds
+from ..stream.identity import fingerprint
 from ..stream.chunks import FileSource, close, open_source
 from ..stream.npy import CHUNK_BYTES
 from ..stream.progress import bar

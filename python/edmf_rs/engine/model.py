@@ -16,9 +16,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .. import _core
-from ..stream.checkpoint import every_seconds, fingerprint
+from ..stream.checkpoint import every_seconds
 from ..stream.chunks import Skipped, as_chunk, skip_rows
-from ..stream.identity import model_fingerprint
+from ..stream.identity import fingerprint, model_fingerprint
 from ..stream.progress import bar
 from ._validate import finite_vector, flag, positive_int, real_array
 from .durable import open_run

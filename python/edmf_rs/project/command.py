@@ -76,7 +76,9 @@ def check_out(out: Path, project: Project, force: bool, outputs=(*OUTPUT_FILES, 
             raise ProjectError(f"--out {out}: the folder is not empty and holds no earlier {what} of "
                                f"{project.file.name}; choose an empty or new folder, or pass --force to write into it")
         if not (out / MARKER).is_file():  # no edmf-rs run's folder: its files are the user's
-            taken = sorted(name for name in (*outputs, "failures.csv") if name != MARKER and (out / name).exists())
+            adaptive = getattr(getattr(project, "sampling", None), "method", None) == "adaptive"
+            written = [n for n in (*outputs, "failures.csv") if n != MARKER and (adaptive or n not in ADAPTIVE_FILES)]
+            taken = sorted(name for name in written if (out / name).exists())
             if taken:
                 raise ProjectError(f"--out {out}: --force writes into the folder but never replaces files a {what} "
                                    f"did not write, and it holds {', '.join(taken)}; move them or choose another "

@@ -1,11 +1,14 @@
 """Atomic output files: write to a temporary file beside the target, flush it
 to disk, then rename over the target. A failed or interrupted write (full
-disk, Ctrl-C, crash) never leaves a target that looks complete."""
+disk, Ctrl-C, crash) never leaves a target that looks complete; a group of
+writes that must land together runs under :func:`deferred_sigint`."""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import signal
+import threading
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -50,3 +53,23 @@ def write_bytes(target: str | os.PathLike, data: bytes) -> None:
 
 def write_text(target: str | os.PathLike, text: str) -> None:
     write_bytes(target, text.encode("utf-8"))
+
+
+@contextlib.contextmanager
+def deferred_sigint() -> Iterator[None]:
+    """Holds Ctrl-C back until the block is done (main thread only), so a
+    checkpoint is either written whole or not at all in memory as on disk."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if received:
+            if callable(previous):
+                previous(signal.SIGINT, None)
+            elif previous != signal.SIG_IGN:
+                raise KeyboardInterrupt

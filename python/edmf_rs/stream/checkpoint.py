@@ -18,20 +18,17 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
 import numbers
 import os
 import re
-import signal
-import threading
 import time
-from collections.abc import Iterator
 
 import numpy as np
 
 from .. import _core
 from . import chunks, parts
 from . import state as state_file
+from .atomic import deferred_sigint
 from .folder_lock import LOCK, FolderLock, folder_path
 
 STATE = state_file.STATE
@@ -66,44 +63,6 @@ class CheckpointError(OSError):
     >>> isinstance(exc, OSError), exc.errno == errno.ENOSPC
     (True, True)
     """
-
-
-def digest(*arrays) -> str:
-    """Short content hash of arrays, independent of their dtype and layout."""
-    h = hashlib.sha256()
-    for a in arrays:
-        a = np.ascontiguousarray(a, dtype=np.float64)
-        h.update(repr(a.shape).encode())
-        h.update(a.tobytes())
-    return h.hexdigest()[:32]
-
-
-def fingerprint(call: str, measurements: np.ndarray, thresholds, **options) -> dict:
-    """What must not change between a run and its resumption (``thresholds``:
-    anything with ``n_sensors``, ``low`` and ``high``; ``options``: JSON
-    values, e.g. ``model=`` a :func:`edmf_rs.stream.identity.model_fingerprint`)."""
-    return {"call": call, "n_sensors": thresholds.n_sensors, "measurements": digest(measurements),
-            "thresholds": digest(thresholds.low, thresholds.high), **options}
-
-
-@contextlib.contextmanager
-def deferred_sigint() -> Iterator[None]:
-    """Holds Ctrl-C back until the block is done (main thread only), so a
-    checkpoint is either written whole or not at all in memory as on disk."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    received: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        if received:
-            if callable(previous):
-                previous(signal.SIGINT, None)
-            elif previous != signal.SIG_IGN:
-                raise KeyboardInterrupt
 
 
 def digestible(rows) -> np.ndarray:

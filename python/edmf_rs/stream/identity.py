@@ -1,4 +1,7 @@
-"""What identifies a model across runs, for a checkpoint's fingerprint.
+"""What identifies a run's inputs and model across runs, for a checkpoint's fingerprint.
+
+:func:`fingerprint` holds the call, hashes of the measurements and thresholds
+and the options; the model's part is :func:`model_fingerprint`.
 
 A qualified name is not enough: two ``lambda t: scale * t`` made with
 ``scale=1`` and ``scale=2`` share it. :func:`model_fingerprint` hashes what
@@ -30,6 +33,25 @@ _SIMPLE = (type(None), bool, int, float, complex, str, bytes)
 #: Module-level values a function reads that are hashed by content (others by type).
 _GLOBALS = (*_SIMPLE, np.ndarray, np.generic, tuple, frozenset, types.FunctionType, functools.partial,
             types.ModuleType, type, types.BuiltinFunctionType, np.ufunc)
+
+
+def digest(*arrays) -> str:
+    """Short content hash of arrays, independent of their dtype and layout."""
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        h.update(repr(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:32]
+
+
+def fingerprint(call: str, measurements: np.ndarray, thresholds, **options) -> dict:
+    """What must not change between a run and its resumption (``thresholds``:
+    anything with ``n_sensors``, ``low`` and ``high``; ``options``: JSON
+    values, e.g. ``model=`` a :func:`edmf_rs.stream.identity.model_fingerprint`)."""
+    return {"call": call, "n_sensors": thresholds.n_sensors, "measurements": digest(measurements),
+            "thresholds": digest(thresholds.low, thresholds.high), **options}
+
 
 
 class Unhashable(Exception):
