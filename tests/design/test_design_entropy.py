@@ -82,6 +82,24 @@ def test_fixed_sensors_costs_budget_and_tolerance_match_reference(problem):
         assert len(d) == 0 or d.cost[-1] <= budget + 1e-12
 
 
+def test_a_zero_tolerance_keeps_adding_locations_that_gain_nothing():
+    """Columns 0-4 split the instances alike: after location 1, each adds 0 bits,
+    which the Rust sums gave as a gain of about -4e-16, so tolerance = 0 stopped
+    the design after three sensors (found by the property test above)."""
+    rows = ["0000011", "0000022", "0000022", "2222202", "0000021", "1111102", "0000022", "0000002",
+            "1111110", "2222200", "0000022", "0000021", "2222202", "0000022", "0000001", "0000011",
+            "0000021", "2222200", "0000021", "2222200", "2222221", "1111102"]
+    g = np.array([[float(c) for c in r] for r in rows])
+    w = np.array([0.3, 0.5, 0.3, 0.3, 1.0, 0.3, 2.5])
+    for dtype in (np.float64, np.float32):
+        d = design.place_sensors(g.astype(dtype), w, 7, fixed=[1, 3], tolerance=0.0)
+        # Locations 0, 2 and 4 repeat 1's split and 6 adds nothing after 5: ties to the lowest index.
+        assert d.order.tolist() == [1, 3, 5, 0, 2, 4, 6]
+        assert len(set(np.round(d.joint_entropy[2:], 12))) == 1
+    # A tolerance above 0 stops where the gains fall to 0.
+    assert design.place_sensors(g, w, 7, fixed=[1, 3], tolerance=0.01).order.tolist() == [1, 3, 5]
+
+
 def test_ties_go_to_the_lowest_index():
     # Columns 1 and 3 are the same split, column 2 is its mirror: all tie.
     g = np.array([[0, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 1, 0, 1]], dtype=float)

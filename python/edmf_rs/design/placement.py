@@ -92,7 +92,8 @@ def place_sensors(predictions, widths, k=None, *, fixed=(), costs=None, types=No
         Total cost the design may not exceed (needs ``costs``; at least the
         cheapest sensor).
     tolerance : float, optional
-        Stop when the best gain falls below this many bits.
+        Stop when the best gain falls below this many bits (by more than
+        ``TIE``: a location that leaves the partition as it was gains 0).
     nan_policy : {"raise", "bin"}
         Refuse NaN predictions, or give them a bin of their own.
     max_per_type : dict of str to int, optional

@@ -76,7 +76,7 @@ def place_sensors(predictions, widths, k, fixed=(), costs=None, budget=None, tol
         value = [(hi - h) / cost[i] for i, hi in zip(remaining, hs)]
         best = max(value)
         j = next(j for j, v in enumerate(value) if v >= best - TIE)
-        if tolerance is not None and hs[j] - h < tolerance:
+        if tolerance is not None and hs[j] - h < tolerance - TIE:  # within TIE: reached (a 0-bit gain at 0)
             break
         order.append(remaining[j])
         entropies.append(hs[j])

@@ -112,7 +112,8 @@ def run_cli(project_path: str | Path, out: str | Path | None = None, progress: b
     plan = project.check(workers)
     if dry_run:
         print(plan.describe())
-        print(f"outputs: {out_dir}/ (dry run: the model checked on two instances, nothing else evaluated, no output written)")
+        print(f"outputs: {out_dir}/ (dry run: the model checked on two instances, nothing else evaluated, "
+              "no output written)")
         return 0
     print(plan.describe().splitlines()[0], file=sys.stderr)
     # The folder is this project's from now on (its store and work folders are written during the

@@ -16,7 +16,7 @@ pub struct PlacementOptions {
     pub costs: Option<Vec<f64>>,
     /// Total cost the design may not exceed (needs `costs`).
     pub budget: Option<f64>,
-    /// Stop when the best gain (bits) falls below this.
+    /// Stop when the best gain (bits) falls below this by more than [`TIE`].
     pub tolerance: Option<f64>,
     /// NaN predictions form a bin of their own (else they are refused).
     pub nan_bin: bool,

@@ -235,7 +235,10 @@ pub fn place<T: Prediction>(
         let Some(&(i, _, gain)) = evaluated.iter().filter(|e| e.1 >= best - TIE).min_by_key(|e| e.0) else {
             break; // not reached: the first batch is never empty
         };
-        if opts.tolerance.is_some_and(|t| gain < t) {
+        // A gain within TIE of the tolerance reaches it: an added location that
+        // leaves the partition as it was gains 0 bits, which the sums can give
+        // as -4e-16 (tolerance 0 then stopped the design early).
+        if opts.tolerance.is_some_and(|t| gain < t - TIE) {
             break;
         }
         taken[i] = true;
