@@ -6,7 +6,7 @@ benches/results-short-rows.txt."""
 import re
 from pathlib import Path
 
-from test_performance_tables import ROW, _floor_summary
+from test_performance_tables import ROW, _checksum_run, _floor_summary
 
 ROOT = Path(__file__).resolve().parent.parent
 BATCH = 'session 22: the "falsified only by" arithmetic of several periods in vector lanes, not kept'
@@ -119,12 +119,7 @@ def test_the_kernel_comment_quotes_the_recorded_runs():
 
 def test_the_checksum_figures_match_the_recorded_run():
     text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
-    sections = [s for s in text.split("\n=== ") if "session 22 code (03957a4)" in s.split("\n", 1)[0]]
-    assert len(sections) == 1
-    section = sections[0]
-    mem = re.search(r"CPU on/off of the best times: median ([\d.]+), largest ([\d.]+)", section).groups()
-    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
-                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    mem, warm, cold = _checksum_run("session 22 code (03957a4)")
     assert (f"Session 22 ran it again on session 21's kernels (section \"session 22 code\"): in memory a median of "
             f"{mem[0]} (largest {mem[1]}), from the page cache {warm[0]} (paired: {warm[1]}), from the disk {cold[0]} "
             f"(paired: {cold[1]}).") in _page()

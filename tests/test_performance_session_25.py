@@ -5,7 +5,7 @@ size, the floor tables) and benches/results-hash-cost.txt (the checksum)."""
 import re
 from pathlib import Path
 
-from test_performance_tables import _floor_summary, _level_tables, _target
+from test_performance_tables import _checksum_run, _floor_summary, _level_tables, _target
 
 ROOT = Path(__file__).resolve().parent.parent
 SHORT_ROWS = (ROOT / "benches" / "results-short-rows.txt").read_text()
@@ -78,13 +78,7 @@ def test_the_misses_of_float32_rows_of_10_are_runs_whose_floor_read_fast():
 
 
 def test_the_checksum_figures_match_the_recorded_run():
-    text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
-    sections = [s for s in text.split("\n=== ") if "session 25 code (bb51d7b" in s.split("\n", 1)[0]]
-    assert len(sections) == 1
-    section = sections[0]
-    mem = re.search(r"CPU on/off of the best times: median ([\d.]+), largest ([\d.]+)", section).groups()
-    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
-                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    mem, warm, cold = _checksum_run("session 25 code (bb51d7b")
     assert (f"in memory a median of {mem[0]} (largest {mem[1]}), from the page cache {warm[0]} (paired: {warm[1]}), "
             f"from the disk {cold[0]} (paired: {cold[1]}).") in PAGE
 
@@ -103,11 +97,7 @@ def test_the_readme_quotes_the_session_25_floor_tables():
 
 
 def test_the_readme_quotes_the_session_25_checksum_run():
-    text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
-    section = [s for s in text.split("\n=== ") if "session 25 code (bb51d7b" in s.split("\n", 1)[0]][0]
-    mem = re.search(r"CPU on/off of the best times: median ([\d.]+)", section)[1]
-    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
-                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    (mem, _), warm, cold = _checksum_run("session 25 code (bb51d7b")
     readme = " ".join((ROOT / "README.md").read_text().split())
     assert (f"Session 25, with each task of the pool reading 1 MiB: {mem} in memory, {warm[0]} from the page cache "
             f"(paired: {warm[1]}) and {cold[0]} from the disk (paired: {cold[1]}).") in readme

@@ -819,3 +819,17 @@ def test_session_19_hand_over_and_prefetch_costs_match_the_recorded_runs():
     none = [float(r) for r in re.findall(r"^200 float\d\d typical .* -1:1: ([\d.]+)", scan, re.M)]
     assert len(none) == 2 and f"read at {min(none):.2f}-{max(none):.2f} times the speed of `t1:8192` without one" in page
     assert f"to {min(in_struct):.3f}-{max(in_struct):.3f} of its speed" in src("simd/periodic.rs")
+
+
+def _checksum_run(title: str) -> tuple[tuple, tuple, tuple]:
+    """The figures of the one section of benches/results-hash-cost.txt whose
+    heading holds `title`: (median, largest) CPU on/off in memory, and
+    (median, paired median) of ckpt+sum / ckpt streaming warm and cold."""
+    text = (ROOT / "benches" / "results-hash-cost.txt").read_text()
+    sections = [s for s in text.split("\n=== ") if title in s.split("\n", 1)[0]]
+    assert len(sections) == 1, title
+    section = sections[0]
+    mem = re.search(r"CPU on/off of the best times: median ([\d.]+), largest ([\d.]+)", section).groups()
+    warm, cold = (re.search(rf"streaming {kind}, ckpt\+sum / ckpt: median ([\d.]+), largest [\d.]+; "
+                            r"median of the paired ratios ([\d.]+)", section).groups() for kind in ("warm", "cold"))
+    return mem, warm, cold
