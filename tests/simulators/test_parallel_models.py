@@ -111,3 +111,23 @@ def _running(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
     except (FileNotFoundError, ProcessLookupError):
         return False
+
+
+def test_a_failing_model_with_two_workers_names_an_instance_that_fails(folder, tmp_path, capsys):
+    """The model's own error leaves the workers running, so the search for the
+    first failing instance runs the model again (a stopped pool had every call
+    fail and named instance 0, which passes)."""
+    (folder / "diverging.py").write_text(textwrap.dedent("""
+        from lin_model import predict as linear
+        def predict(theta):
+            if (theta[:, 0] > 1.5).any():
+                raise ValueError("diverged")
+            return linear(theta)
+    """))
+    project = write_project(folder, 'function = "diverging:predict"\nworkers = 2\nbatch_size = 16', n=32)
+    code, _ = run(project, tmp_path / "out")
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "raised ValueError: diverged, on batch 0 (instances 0..15); first failing instance:" in err
+    a = float(err.split("first failing instance:")[1].split("(a=")[1].split(",")[0])
+    assert a > 1.5

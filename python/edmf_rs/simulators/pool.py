@@ -96,8 +96,8 @@ class FunctionPool:
                 f"a worker process evaluating model.function = '{self.ref}' on instances {first}.."
                 f"{first + len(theta) - 1} died (killed, out of memory or crashed); the instances before "
                 "them are kept in the prediction store") from None
-        except BaseException:  # Ctrl-C while the workers run: waiting for a slow model would hang
-            self.terminate()
+        except KeyboardInterrupt:  # waiting for a slow model would hang; the model's own errors keep the
+            self.terminate()       # workers, which then find the first failing instance
             raise
 
     def terminate(self) -> None:
