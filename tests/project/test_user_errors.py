@@ -6,6 +6,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from edmf_rs import cli
 from edmf_rs.project import Project, ProjectError
@@ -37,6 +38,22 @@ MODEL = textwrap.dedent("""
         if theta[0, 0] > 0.5:
             sys.exit(0)
         return fine(theta)
+
+    def hard_quits(theta):
+        if theta[0, 0] > 0.5:
+            import os
+            os._exit(0)
+        return fine(theta)
+
+    def _square(x):
+        return x * x
+
+    def forks(theta):
+        # a model that uses multiprocessing's fork start method: its children end with os._exit
+        import multiprocessing
+        with multiprocessing.get_context("fork").Pool(2) as pool:
+            squares = pool.map(_square, [float(t) for t in theta[:, 1]])
+        return np.column_stack([theta[:, 0], np.sqrt(squares)])
 
     def edits(theta):
         theta[:, 0] = 0.0
@@ -91,6 +108,33 @@ def test_sys_exit_in_the_model_is_a_failure(tmp_path):
     assert proc.returncode == 1
     assert "model.function = 'm:quits' called sys.exit(0)" in proc.stderr
     assert not (tmp_path / "out" / "summary.json").exists()
+
+
+# The model exits when the first row of its call has a > 0.5 (grid in C order: instance 21 i + j has
+# a = 0.1 i, b = 0.1 j). One worker gets whole batches: batch 2 starts at 200 (a = 0.9, b = 1.1). Two workers
+# get halves: batch 1's second half starts at 150 (a = 0.7); alone, instance 126 (a = 0.6, b = 0) fails first.
+@pytest.mark.parametrize("workers, where", [
+    (1, "on batch 2 (instances 200..299); first failing instance: 200 (a=0.9, b=1.1)"),
+    (2, "on batch 1 (instances 100..199); first failing instance: 126 (a=0.6, b=0)")])
+def test_os_exit_in_the_model_is_a_failure(tmp_path, workers, where):
+    # os._exit(0) ended the interpreter at once: exit status 0 and no outputs, as if the run had passed
+    text = PROJECT.replace("FUNC", "hard_quits").replace('batch_size = 100', f'batch_size = 100\nworkers = {workers}')
+    path = write_project(tmp_path, text, modules={"m": MODEL}, csv="sensor,value\nS1,1.0\nS2,1.0\n")
+    proc = run("run", path, "--out", tmp_path / "out", "--no-progress")
+    assert proc.returncode == 1, proc.stderr
+    message = proc.stderr.strip().splitlines()[-1]
+    assert f"model.function = 'm:hard_quits' called os._exit(0), {where}" in message, message
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_a_model_whose_forked_children_exit_runs_as_usual(tmp_path):
+    # the refusal holds in edmf_rs's own process only: multiprocessing's forked children must still exit
+    forked = run("run", project(tmp_path / "forks", "forks"), "--out", tmp_path / "forks" / "out", "--no-progress")
+    plain = run("run", project(tmp_path / "fine", "fine"), "--out", tmp_path / "fine" / "out", "--no-progress")
+    assert forked.returncode == 0 and plain.returncode == 0, forked.stderr + plain.stderr
+    read = lambda folder: pd.read_parquet(folder / "out" / "candidates.parquet")
+    assert len(read(tmp_path / "fine")) > 0
+    pd.testing.assert_frame_equal(read(tmp_path / "forks"), read(tmp_path / "fine"))
 
 
 def test_prognosis_failure_names_the_prognosis(tmp_path):

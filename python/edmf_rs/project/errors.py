@@ -15,6 +15,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..simulators.exits import ExitCalled, exits_refused
+
 #: Seconds spent at most looking for the first instance that fails on its own.
 SEARCH_SECONDS = 10.0
 
@@ -40,7 +42,8 @@ def read_only_copy(theta: np.ndarray) -> np.ndarray:
 
 def _fails(call: Callable, rows: np.ndarray) -> bool:
     try:
-        call(read_only_copy(rows))
+        with exits_refused():
+            call(read_only_copy(rows))
     except KeyboardInterrupt:
         raise
     except BaseException:  # also sys.exit and the user's own BaseException subclasses
@@ -62,17 +65,20 @@ def first_failing(call: Callable, theta: np.ndarray, seconds: float = SEARCH_SEC
 
 def call_user_code(call: Callable, theta: np.ndarray, *, what: str, where: str, first: int,
                    describe: Callable[[np.ndarray], str], unit: str = "instance"):
-    """``call(theta)`` on a read-only copy; any exception (or sys.exit) becomes a
+    """``call(theta)`` on a read-only copy; any exception (or sys.exit, os._exit) becomes a
     :class:`UserCodeError` naming ``what``, ``where`` (batch and instances)
     and the first failing row's parameters."""
     try:
-        return call(read_only_copy(theta))
+        with exits_refused():
+            return call(read_only_copy(theta))
     except KeyboardInterrupt:
         raise
     except BaseException as exc:  # sys.exit and the user's own BaseException subclasses too
         if getattr(exc, "names_its_instances", False):
             raise  # e.g. stopped external runs: already named, and re-running them would run the solver again
-        if isinstance(exc, SystemExit):
+        if isinstance(exc, ExitCalled):
+            raised = f"called os._exit({exc.code!r})"
+        elif isinstance(exc, SystemExit):
             raised = f"called sys.exit({exc.code!r})"
         else:
             raised = f"raised {type(exc).__name__}" + (f": {exc}" if str(exc) else "")

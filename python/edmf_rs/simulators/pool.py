@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .columns import portable
+from .exits import exits_refused
 from .failures import SimulationError
 
 _FUNCTIONS: dict[tuple[str, str], object] = {}
@@ -50,7 +51,8 @@ def _leave_interrupts_to_the_parent() -> None:
 def _call(ref: str, path: str, options: dict, theta: np.ndarray):
     """The model on one piece of a batch; a named output (DataFrame, mapping,
     structured array) comes back with its names, to be matched by name."""
-    return portable(_function(ref, path)(theta, **options))
+    with exits_refused():  # the model's os._exit is its failure, not a dead worker
+        return portable(_function(ref, path)(theta, **options))
 
 
 class FunctionPool:
