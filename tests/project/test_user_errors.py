@@ -55,6 +55,11 @@ MODEL = textwrap.dedent("""
             squares = pool.map(_square, [float(t) for t in theta[:, 1]])
         return np.column_stack([theta[:, 0], np.sqrt(squares)])
 
+    def overflows(theta):
+        out = fine(theta)
+        out[theta[:, 0] > 1.5, 1] = np.inf
+        return out
+
     def edits(theta):
         theta[:, 0] = 0.0
         return fine(theta)
@@ -135,6 +140,13 @@ def test_a_model_whose_forked_children_exit_runs_as_usual(tmp_path):
     read = lambda folder: pd.read_parquet(folder / "out" / "candidates.parquet")
     assert len(read(tmp_path / "fine")) > 0
     pd.testing.assert_frame_equal(read(tmp_path / "forks"), read(tmp_path / "fine"))
+
+
+def test_an_infinite_prediction_is_refused_like_nan(tmp_path):
+    proc = run("run", project(tmp_path, "overflows"), "--out", tmp_path / "out", "--no-progress")
+    assert proc.returncode == 2, proc.stderr
+    assert "model.function = 'm:overflows': returned inf for instance 336 (a=1.6, b=0); expected finite " \
+           "predictions" in proc.stderr
 
 
 def test_prognosis_failure_names_the_prognosis(tmp_path):

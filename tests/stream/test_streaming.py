@@ -349,6 +349,23 @@ def test_model_wrong_shape_and_nan_are_named():
     assert counted.n_invalid == 1 and 1234 not in counted.candidate_indices
 
 
+def test_an_infinite_prediction_is_named_like_nan_and_falsified_when_asked():
+    theta, y, t = _model_case()
+    plain = edmf_rs.falsify_model(_model, theta, y, t, batch_size=500)
+    k = int(plain.candidate_indices[len(plain.candidate_indices) // 2])  # a candidate, so the test can fail
+
+    def minus_inf_at_k(batch):
+        out = _model(batch)
+        out[batch[:, 0] == theta[k, 0], 2] = -np.inf
+        return out
+
+    with pytest.raises(ValueError, match=rf"returned -inf for instance {k} \(batch {k // 500}, "):
+        edmf_rs.falsify_model(minus_inf_at_k, theta, y, t, batch_size=500)
+    falsified = edmf_rs.falsify_model(minus_inf_at_k, theta, y, t, batch_size=500, nan="falsify")
+    assert falsified.n_invalid == 0
+    np.testing.assert_array_equal(falsified.candidate_indices, np.setdiff1d(plain.candidate_indices, [k]))
+
+
 def test_parameter_batch_of_wrong_width():
     theta, y, t = _model_case()
     with pytest.raises(ValueError, match=r"parameters: batch 1 has shape \(10, 3\), expected \(n, 2\)"):

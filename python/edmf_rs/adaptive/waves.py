@@ -129,8 +129,8 @@ def adaptive_falsify(model: Callable, bounds, measurements, thresholds: Threshol
         leave-one-out standard deviations, per sensor, for the emulator to be
         trusted; otherwise the next wave falls back to the whole domain.
     nan
-        ``"raise"``: a NaN output is an error naming the run; ``"falsify"``:
-        such runs are falsified and left out of the emulator.
+        ``"raise"``: a NaN or infinite output is an error naming the run;
+        ``"falsify"``: such runs are falsified and left out of the emulator.
     basis
         ``"sensors"``: a GP per sensor; ``"pca"``: GPs on the leading
         principal components of the standardised outputs, their variance

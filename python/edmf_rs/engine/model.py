@@ -111,14 +111,21 @@ def evaluate(model: Callable, batch: np.ndarray, offset: int, n_sensors: int, na
         # Rust reads this batch while the model computes the next one: a model
         # that reuses its output buffer would overwrite it under the reader.
         chunk = chunk.copy()
-    if nan == "raise":
-        bad = np.flatnonzero(np.isnan(chunk).any(axis=1))
+    if nan == "raise":  # an infinite prediction is a failed model run too (an overflow, a diverged solver)
+        bad = np.flatnonzero(~np.isfinite(chunk).all(axis=1))
         if bad.size:
             raise ValueError(
-                f"model: returned NaN for instance {offset + bad[0]} ({where}; parameters "
-                f"{batch[bad[0]].tolist()}); pass nan='falsify' to count such instances as invalid instead"
+                f"model: returned {non_finite(chunk[bad[0]])} for instance {offset + bad[0]} ({where}; parameters "
+                f"{batch[bad[0]].tolist()}); pass nan='falsify' to count instances with NaN as invalid and "
+                "falsify those with infinite predictions instead"
             )
     return chunk
+
+
+def non_finite(row: np.ndarray) -> str:
+    """What a row of predictions holds that is not finite: "NaN", "inf" or "-inf" (the first such value)."""
+    value = row[~np.isfinite(row)][0]
+    return "NaN" if np.isnan(value) else ("inf" if value > 0 else "-inf")
 
 
 def falsify_model(model: Callable, parameters, measurements, thresholds: Thresholds, *,
@@ -154,8 +161,9 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
     keep_violations : bool, default False
         Keep the number of violated sensors of every instance.
     nan : {"raise", "falsify"}, default "raise"
-        ``"raise"`` (default): a NaN prediction is an error naming the
-        instance; ``"falsify"``: such instances are counted invalid.
+        ``"raise"`` (default): a NaN or infinite prediction is an error
+        naming the instance; ``"falsify"``: instances with NaN are counted
+        invalid, and infinite predictions are falsified by their residual.
     on_batch : callable, optional
         Called as ``on_batch(offset, parameters, predictions)`` for every batch,
         e.g. to compute extra diagnostics.

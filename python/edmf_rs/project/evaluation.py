@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..engine._validate import real_array
+from ..engine.model import non_finite
 from ..engine.sensors import SensorMapping, SensorMatch, SensorMismatch
 from .errors import call_user_code
 from .precomputed import precomputed_instances
@@ -94,12 +95,12 @@ class CheckedModel:
             raise ProjectError(f"{self.where}: returned {type(out).__name__}{kind}, expected an array of real numbers "
                                f"of shape ({len(theta)}, {len(self.match.sensors)}) or a DataFrame with a "
                                "column per sensor") from None
-        if self.nan == "raise":
-            bad = np.flatnonzero(np.isnan(out).any(axis=1))
+        if self.nan == "raise":  # inf too: an overflow or a diverged solver, not a prediction
+            bad = np.flatnonzero(~np.isfinite(out).all(axis=1))
             if bad.size:
-                raise ProjectError(f"{self.where}: returned NaN for instance {self.offset + bad[0]} "
-                                   f"({self.describe(theta[bad[0]])}); expected finite predictions "
-                                   "(or set nan = \"falsify\" under [model])")
+                raise ProjectError(f"{self.where}: returned {non_finite(out[bad[0]])} for instance "
+                                   f"{self.offset + bad[0]} ({self.describe(theta[bad[0]])}); expected finite "
+                                   "predictions (or set nan = \"falsify\" under [model])")
         self.offset += theta.shape[0]
         self.batch += 1
         return out
