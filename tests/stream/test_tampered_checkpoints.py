@@ -10,11 +10,15 @@ import io
 import json
 import os
 import shutil
+from pathlib import Path
 
 import edmf_rs
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from edmf_rs import Thresholds
+from edmf_rs.stream import parts
 from edmf_rs.stream import state as state_file
 
 N_M = 4
@@ -199,3 +203,26 @@ def test_forged_violation_counts_beside_candidate_indices_are_refused(tmp_path):
     counts[result.candidate_indices[0]] = 1  # a candidate with a violated sensor
     _forge_part(folder, 0, "n_violated", counts.astype(np.int32))
     _refused(folder, predictions, y, t, "part-000000.n_violated.npy holds counts of violated sensors")
+
+
+@pytest.mark.parametrize("numpy_counts_bits", [True, False])
+@given(words=st.lists(st.integers(0, 2**64 - 1), min_size=1, max_size=40), n_past=st.integers(0, 63))
+@settings(max_examples=60, deadline=None)
+def test_a_bitmap_check_without_unpacking_agrees_with_the_unpacked_bits(numpy_counts_bits, words, n_past):
+    # check_bitmap counts bits with np.bitwise_count where NumPy has it (2.0 on), else by unpacking
+    words = np.array(words, dtype="<u8")
+    n_instances = max(len(words) * 64 - n_past, (len(words) - 1) * 64 + 1)
+    bits = np.unpackbits(words.view(np.uint8), bitorder="little").astype(bool)
+    past, count = bits[n_instances:].any(), int(bits.sum())
+    with pytest.MonkeyPatch.context() as mp:
+        if not numpy_counts_bits and hasattr(np, "bitwise_count"):
+            mp.delattr(np, "bitwise_count")
+        for n_candidates in (count, count + 1):
+            good = not past and n_candidates == count
+            try:
+                parts.check_bitmap(Path("p.npy"), words, n_instances, n_candidates)
+                refused = False
+            except ValueError:
+                refused = True
+            assert refused != good
+    np.testing.assert_array_equal(parts.bitmap_mask(words, n_instances), bits[:n_instances])

@@ -282,8 +282,10 @@ class Checkpoint:
                                           parts.FORMS[form] if name == "candidates" else None)
             path = self.part_path(k, "candidates")
             if form == "bitmap":
-                mask = parts.bitmap_mask(path, loaded["candidates"], n, part["n_candidates"])
-                loaded["candidates"] = (first, n, loaded["candidates"])
+                words = loaded["candidates"]
+                parts.check_bitmap(path, words, n, part["n_candidates"])
+                loaded["candidates"] = (first, n, words)
+                mask = parts.bitmap_mask(words, n) if "n_violated" in loaded else None  # only to check the counts
             else:
                 parts.check_candidates(path, loaded["candidates"], first, n)
                 mask = loaded["candidates"] - first  # indexes the part's instances like the bitmap's mask
