@@ -44,9 +44,10 @@ class CheckpointError(OSError):
     """Writing a checkpoint failed; the folder keeps its previous state.
 
     Raised by `falsify` and `falsify_model` with ``checkpoint=`` when a save
-    fails (a full disk, a folder made read-only during the run). Running the
-    same call again once the problem is fixed resumes from the last state
-    saved. An ``OSError``, so ``except OSError`` catches it too.
+    fails (a full disk, a folder made read-only during the run), or finds the
+    folder removed or emptied. Running the same call again once the problem is
+    fixed resumes from the last state saved (or starts over, if it is gone).
+    An ``OSError``, so ``except OSError`` catches it too.
 
     Attributes
     ----------
@@ -334,6 +335,10 @@ class Checkpoint:
 
     def _write(self, acc, n_done: int, arrays: dict, final: bool) -> None:
         self.check_verified()
+        # Removed, emptied or replaced: a save would recreate it, and the run fail reading the parts back at the end
+        if not self.folder.is_dir() or self._had_state and not (self.folder / STATE).is_file():
+            raise CheckpointError(errno.ENOENT, f"checkpoint: folder {self.folder} was removed or emptied during "
+                                  f"the run, with the {self.n_done:,} instances saved there; run again to start over")
         if self.rows.n_rows != n_done:
             raise RuntimeError(f"checkpoint: {n_done} instances done but {self.rows.n_rows} recorded")
         files: dict[str, np.ndarray] = {}
@@ -390,7 +395,7 @@ class Checkpoint:
         for rows in arrays.values():
             rows.clear()
         self.n_done, self.parts, self.tally, self.complete = n_done, new_parts, tally, final
-        self.was_rereadable = state["rereadable"]
+        self.was_rereadable, self._had_state = state["rereadable"], True
         self._pending = state["pending"]
         self._last = time.monotonic()
         if final:
