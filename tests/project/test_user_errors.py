@@ -246,3 +246,32 @@ def test_ctrl_c_while_the_command_imports_prints_one_line(tmp_path):
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert proc.stderr == "edmf-rs: interrupted\n"
     assert proc.returncode != 0
+
+
+def test_exit_refusals_overlapping_in_threads_put_os_exit_back():
+    # two threads inside at once, leaving in the order they entered: os._exit must be the real one after
+    import os
+    import threading
+
+    from edmf_rs.simulators.exits import ExitCalled, exits_refused
+    real, inside, first_out = os._exit, threading.Barrier(2), threading.Event()
+    caught = []
+
+    def worker(k):
+        with exits_refused():
+            inside.wait()
+            try:
+                os._exit(3)
+            except ExitCalled as exc:
+                caught.append(exc.code)
+            if k == 1:  # the second one in leaves last
+                first_out.wait(timeout=30)
+        if k == 0:
+            first_out.set()
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in (0, 1)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=30)
+    assert caught == [3, 3] and os._exit is real
