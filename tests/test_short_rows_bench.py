@@ -1,6 +1,6 @@
 """The short-row benchmarks run on tiny arrays and print what they say: the
-floor table of benches/throughput.py (--floor), benches/side_by_side.py and
-benches/small_calls.py. Nothing here is timed."""
+floor table of benches/throughput.py (--floor), benches/side_by_side.py,
+benches/small_calls.py and benches/core_rate.py. Nothing here is timed."""
 
 import importlib.util
 import sys
@@ -45,3 +45,14 @@ def test_small_calls_prints_one_row_per_size(capsys):
     run_script("small_calls", ["--rows", "10", "7000", "--calls", "3"])
     rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip()[:1].isdigit()]
     assert [r[0] for r in rows] == ["10", "7000"] and all(float(r[1]) > 0 for r in rows)
+
+
+def test_core_rate_prints_both_passes_of_every_case_and_restores_the_threads(capsys):
+    import edmf_rs
+    before = edmf_rs.get_num_threads()
+    run_script("core_rate", ["--nm", "3", "12", "--calls", "2", "--rounds", "1"])
+    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.startswith("float")]
+    assert {(r[0], r[1], r[2]) for r in rows} == {(d, n, c) for d in ("float64", "float32") for n in ("3", "12")
+                                                  for c in ("worst", "typical")}
+    assert len(rows) == 8 and all(float(r[3]) > 0 and float(r[4]) > 0 for r in rows)
+    assert edmf_rs.get_num_threads() == before
