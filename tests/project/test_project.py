@@ -269,6 +269,11 @@ def test_precomputed_columns_must_match_the_sensors(tmp_path):
     project = Project.from_toml(write_project(tmp_path, toml.replace("g.csv", "gnan.npy")))
     with pytest.raises(ProjectError, match=r"gnan\.npy: row 7: expected finite predictions, got NaN"):
         project.run(progress=False)
+    predictions[7, 2] = -np.inf  # named as the file's, like NaN (was: "model: returned -inf", a Python keyword)
+    np.save(tmp_path / "ginf.npy", predictions)
+    project = Project.from_toml(write_project(tmp_path, toml.replace("g.csv", "ginf.npy")))
+    with pytest.raises(ProjectError, match=r"ginf\.npy: row 7: expected finite predictions, got -inf \(or set nan"):
+        project.run(progress=False)
 
 
 # --- the command line on the shipped examples ----------------------------------------------------------

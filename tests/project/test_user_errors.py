@@ -275,3 +275,46 @@ def test_exit_refusals_overlapping_in_threads_put_os_exit_back():
     for t in threads:
         t.join(timeout=30)
     assert caught == [3, 3] and os._exit is real
+
+
+def test_os_exit_in_another_thread_still_ends_the_process():
+    # only the threads running the project's code are guarded: a watchdog's os._exit(3) must end the process
+    script = textwrap.dedent("""
+        import os, threading, time
+        from edmf_rs.simulators.exits import exits_refused
+        with exits_refused():
+            threading.Thread(target=lambda: os._exit(3)).start()
+            time.sleep(20)
+        print("still running")
+    """)
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 3 and "still running" not in proc.stdout, proc.stderr
+
+
+@pytest.mark.parametrize("func, code, how", [("hard_quits", 0, "os._exit"), ("quits", 0, "sys.exit")])
+def test_a_worker_sends_an_exit_back_as_an_ordinary_exception(tmp_path, func, code, how):
+    # a SystemExit from a task makes Dask shut its worker down (KilledWorker, the exit never named)
+    import numpy as np
+    from edmf_rs.project.errors import call_user_code
+    from edmf_rs.simulators.exits import ModelExited
+    from edmf_rs.simulators.pool import _call
+    project(tmp_path)  # writes m.py
+    theta = np.array([[0.9, 0.2]])
+    with pytest.raises(ModelExited) as info:
+        _call(f"m:{func}", str(tmp_path), {}, theta)
+    assert not isinstance(info.value, SystemExit) and info.value.code == code
+    with pytest.raises(UserCodeError, match=rf"model.function = 'm:{func}' called {how}\({code}\), on batch 0"):
+        call_user_code(lambda t: _call(f"m:{func}", str(tmp_path), {}, t), theta, what=f"model.function = 'm:{func}'",
+                       where="batch 0", first=0, describe=str)
+
+
+@pytest.mark.parametrize("statement, called", [("import sys; sys.exit(0)", "sys.exit(0)"),
+                                               ("import os; os._exit(0)", "os._exit(0)")])
+def test_a_model_module_that_exits_on_import_is_refused(tmp_path, statement, called):
+    # was: exit status 0 and no outputs, the module's top level outside any guard
+    path = write_project(tmp_path, PROJECT.replace("FUNC", "fine"), modules={"m": statement + "\n" + MODEL},
+                         csv="sensor,value\nS1,1.0\nS2,1.0\n")
+    proc = run("run", path, "--out", tmp_path / "out", "--no-progress")
+    assert proc.returncode == 2, proc.stderr
+    assert f"{path}: model.function: importing 'm' called {called}" in proc.stderr
+    assert not (tmp_path / "out" / "summary.json").exists()

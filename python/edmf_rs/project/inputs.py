@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..simulators.exits import ExitCalled, exits_refused
 from .identification import non_regular
 from .schema import ProjectError, Sensor
 
@@ -68,7 +69,11 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
         sys.path.insert(0, folder)
     _forget_if_from_elsewhere(module_name, Path(folder))
     try:
-        module = importlib.import_module(module_name)
+        with exits_refused():
+            module = importlib.import_module(module_name)
+    except SystemExit as exc:  # sys.exit or os._exit at the module's top level: not a run that passed
+        how = "os._exit" if isinstance(exc, ExitCalled) else "sys.exit"
+        raise ProjectError(f"{label}: {key}: importing '{module_name}' called {how}({exc.code!r})") from None
     except ImportError as exc:
         if isinstance(exc, ModuleNotFoundError) and exc.name and module_name.startswith(exc.name):
             raise ProjectError(f"{label}: {key}: cannot import module '{module_name}' "

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engine.model import non_finite
 from ..engine.sensors import SensorMapping
 from .inputs import match_columns, table_columns
 from .schema import ModelSpec, ProjectError
@@ -245,10 +246,10 @@ def precomputed_instances(project):
         if rows.shape[0] != batch.shape[0]:
             raise ProjectError(f"{m.predictions}: expected as many rows as {m.parameters.name} (at least "
                                f"{offset + batch.shape[0]}), got {offset + rows.shape[0]}")
-        bad = np.flatnonzero(np.isnan(rows).any(axis=1)) if m.nan == "raise" else ()
+        bad = np.flatnonzero(~np.isfinite(rows).all(axis=1)) if m.nan == "raise" else ()
         if len(bad):
             raise ProjectError(f"{m.predictions}: row {offset + bad[0]}: expected finite predictions, "
-                               "got NaN (or set nan = \"falsify\" under [model])")
+                               f"got {non_finite(rows[bad[0]])} (or set nan = \"falsify\" under [model])")
         offset += batch.shape[0]
         return rows
 

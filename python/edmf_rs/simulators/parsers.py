@@ -15,6 +15,8 @@ import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from .exits import ExitCalled, exits_refused
+
 
 class OutputError(ValueError):
     """An output file that cannot be read as predictions (the instance fails)."""
@@ -98,7 +100,11 @@ def resolve(ref: str | None, file: str, path: Path) -> Callable[[Path], Mapping[
     if folder not in sys.path:
         sys.path.insert(0, folder)
     try:
-        module = importlib.import_module(module_name)
+        with exits_refused():
+            module = importlib.import_module(module_name)
+    except SystemExit as exc:  # sys.exit or os._exit at the module's top level
+        how = "os._exit" if isinstance(exc, ExitCalled) else "sys.exit"
+        raise ValueError(f"parser '{ref}': importing module '{module_name}' called {how}({exc.code!r})") from None
     except ImportError as exc:
         raise ValueError(f"parser '{ref}': cannot import module '{module_name}' ({exc})") from None
     func = getattr(module, attr, None)

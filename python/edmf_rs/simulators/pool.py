@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .columns import portable
-from .exits import exits_refused
+from .exits import ExitCalled, ModelExited, exits_refused
 from .failures import SimulationError
 
 _FUNCTIONS: dict[tuple[str, str], object] = {}
@@ -51,8 +51,11 @@ def _leave_interrupts_to_the_parent() -> None:
 def _call(ref: str, path: str, options: dict, theta: np.ndarray):
     """The model on one piece of a batch; a named output (DataFrame, mapping,
     structured array) comes back with its names, to be matched by name."""
-    with exits_refused():  # the model's os._exit is its failure, not a dead worker
-        return portable(_function(ref, path)(theta, **options))
+    try:
+        with exits_refused():  # the model's os._exit is its failure, not a dead worker
+            return portable(_function(ref, path)(theta, **options))
+    except SystemExit as exc:  # os._exit or sys.exit: Dask would shut the worker down on a SystemExit
+        raise ModelExited(exc.code, isinstance(exc, ExitCalled)) from None
 
 
 class FunctionPool:

@@ -88,7 +88,8 @@ class Checkpoint:
 
     def __init__(self, folder, fp: dict, every: float, fields: tuple[str, ...] = (),
                  input_name: str = "predictions", rereadable: bool = True):
-        self.folder = folder_path(folder)
+        # Absolute: a model that changes the working directory must not move the folder under the run
+        self.folder = folder_path(folder).absolute()
         if self.folder.exists() and not self.folder.is_dir():
             raise ValueError(f"checkpoint: expected a folder, {self.folder} is a file")
         self.every, self.fields, self.input_name = float(every), fields, input_name
@@ -116,6 +117,7 @@ class Checkpoint:
     def _read_progress(self) -> None:
         state = self._read_state()
         self._had_state = state is not None
+        self._saved_id = state_file.identity(self.folder / STATE)
         state = state or {}
         self._pending: list[str] = state.get("pending", [])
         # Part files this run may overwrite or remove: the ones a crash during
@@ -336,9 +338,11 @@ class Checkpoint:
     def _write(self, acc, n_done: int, arrays: dict, final: bool) -> None:
         self.check_verified()
         # Removed, emptied or replaced: a save would recreate it, and the run fail reading the parts back at the end
-        if not self.folder.is_dir() or self._had_state and not (self.folder / STATE).is_file():
-            raise CheckpointError(errno.ENOENT, f"checkpoint: folder {self.folder} was removed or emptied during "
-                                  f"the run, with the {self.n_done:,} instances saved there; run again to start over")
+        changed = self._had_state and state_file.identity(self.folder / STATE) != self._saved_id
+        if changed or not self.folder.is_dir():
+            raise CheckpointError(errno.ENOENT, f"checkpoint: folder {self.folder} was removed, emptied or changed "
+                                  f"during the run, which had saved {self.n_done:,} instances there; run the same "
+                                  "call again to resume from what the folder holds (or start over if it is empty)")
         if self.rows.n_rows != n_done:
             raise RuntimeError(f"checkpoint: {n_done} instances done but {self.rows.n_rows} recorded")
         files: dict[str, np.ndarray] = {}
@@ -396,6 +400,7 @@ class Checkpoint:
             rows.clear()
         self.n_done, self.parts, self.tally, self.complete = n_done, new_parts, tally, final
         self.was_rereadable, self._had_state = state["rereadable"], True
+        self._saved_id = state_file.identity(self.folder / STATE)
         self._pending = state["pending"]
         self._last = time.monotonic()
         if final:

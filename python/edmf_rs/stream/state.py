@@ -33,6 +33,18 @@ INT_MAX = 2**63 - 1
 MAX_BYTES = 64 * 2**20
 
 
+def identity(path: Path) -> tuple[int, int] | None:
+    """Size and modification time of the state file (None if absent): a run
+    compares them before each save with what its last save left, to find its
+    folder removed, emptied, replaced or restored from a copy meanwhile. Not
+    the inode: some network file systems make inode numbers up anew."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_size, st.st_mtime_ns
+
+
 def _canonical(state: dict) -> bytes:
     body = {k: v for k, v in state.items() if k != "checksum"}
     return json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False).encode("utf-8")
