@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..simulators.exits import ExitCalled, ModelExited, exits_refused
+from ..simulators.exits import exit_call, exits_refused
 
 #: Seconds spent at most looking for the first instance that fails on its own.
 SEARCH_SECONDS = 10.0
@@ -76,12 +76,9 @@ def call_user_code(call: Callable, theta: np.ndarray, *, what: str, where: str, 
     except BaseException as exc:  # sys.exit and the user's own BaseException subclasses too
         if getattr(exc, "names_its_instances", False):
             raise  # e.g. stopped external runs: already named, and re-running them would run the solver again
-        if isinstance(exc, ModelExited):
-            raised = f"called {'os._exit' if exc.hard else 'sys.exit'}({exc.code!r})"
-        elif isinstance(exc, ExitCalled):
-            raised = f"called os._exit({exc.code!r})"
-        elif isinstance(exc, SystemExit):
-            raised = f"called sys.exit({exc.code!r})"
+        called = exit_call(exc)
+        if called is not None:
+            raised = f"called {called}"
         else:
             raised = f"raised {type(exc).__name__}" + (f": {exc}" if str(exc) else "")
         k = first_failing(call, theta) if theta.shape[0] > 1 else 0

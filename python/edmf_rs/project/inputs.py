@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..simulators.exits import ExitCalled, exits_refused
+from ..simulators.exits import exit_call, exits_refused
 from .identification import non_regular
 from .schema import ProjectError, Sensor
 
@@ -72,8 +72,7 @@ def import_function(ref: str, path: Path, label: str, key: str) -> Callable:
         with exits_refused():
             module = importlib.import_module(module_name)
     except SystemExit as exc:  # sys.exit or os._exit at the module's top level: not a run that passed
-        how = "os._exit" if isinstance(exc, ExitCalled) else "sys.exit"
-        raise ProjectError(f"{label}: {key}: importing '{module_name}' called {how}({exc.code!r})") from None
+        raise ProjectError(f"{label}: {key}: importing '{module_name}' called {exit_call(exc)}") from None
     except ImportError as exc:
         if isinstance(exc, ModuleNotFoundError) and exc.name and module_name.startswith(exc.name):
             raise ProjectError(f"{label}: {key}: cannot import module '{module_name}' "

@@ -22,6 +22,18 @@ class ModelExited(Exception):
         self.code, self.hard = code, hard
 
 
+def exit_call(exc: BaseException) -> str | None:
+    """How the code asked to exit, as it wrote it (``"os._exit(0)"``,
+    ``"sys.exit(2)"``), or None if ``exc`` is no exit."""
+    if isinstance(exc, ModelExited):
+        hard, code = exc.hard, exc.code
+    elif isinstance(exc, SystemExit):
+        hard, code = isinstance(exc, ExitCalled), exc.code
+    else:
+        return None
+    return f"{'os._exit' if hard else 'sys.exit'}({code!r})"
+
+
 _LOCK = threading.Lock()
 #: Threads running the project's code now (ident: depth), the real os._exit, and the process they are in.
 _refusals = {"threads": {}, "real": os._exit, "pid": 0}

@@ -15,7 +15,7 @@ import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from .exits import ExitCalled, exits_refused
+from .exits import exit_call, exits_refused
 
 
 class OutputError(ValueError):
@@ -103,8 +103,7 @@ def resolve(ref: str | None, file: str, path: Path) -> Callable[[Path], Mapping[
         with exits_refused():
             module = importlib.import_module(module_name)
     except SystemExit as exc:  # sys.exit or os._exit at the module's top level
-        how = "os._exit" if isinstance(exc, ExitCalled) else "sys.exit"
-        raise ValueError(f"parser '{ref}': importing module '{module_name}' called {how}({exc.code!r})") from None
+        raise ValueError(f"parser '{ref}': importing module '{module_name}' called {exit_call(exc)}") from None
     except ImportError as exc:
         raise ValueError(f"parser '{ref}': cannot import module '{module_name}' ({exc})") from None
     func = getattr(module, attr, None)
