@@ -85,3 +85,12 @@ def test_segments_by_hand():
     assert s.indices().tolist() == want
     assert np.flatnonzero(s.mask(201)).tolist() == want
     assert CandidateSegments([]).indices().tolist() == []
+
+
+def test_a_bitmap_segment_is_counted_without_numpy_bitwise_count(monkeypatch):
+    # NumPy 1.26 (the oldest the package allows) has no np.bitwise_count: the count falls back to unpacking
+    words = np.array([0b1011, 2**63 + 1, 0], dtype="<u8")
+    counted = CandidateSegments([(0, 192, words)]).count
+    if hasattr(np, "bitwise_count"):
+        monkeypatch.delattr(np, "bitwise_count")
+    assert CandidateSegments([(0, 192, words)]).count == counted == 5

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..stream.parts import count_bits, unpack_bits
+
 
 class CandidateSegments:
     """Candidates of consecutive instances, as ``_core.Falsifier.take_candidate_segments`` gives them.
@@ -52,7 +54,7 @@ class CandidateSegments:
         for s in self.segments:
             if isinstance(s, tuple):
                 first, rows, words = s
-                mask[first:first + rows] = _bits(rows, words).view(bool)
+                mask[first:first + rows] = unpack_bits(rows, words)
             else:
                 mask[s.view(np.int64)] = True
         mask.flags.writeable = False
@@ -62,21 +64,16 @@ class CandidateSegments:
         return (CandidateSegments, (self.segments,))
 
 
-def _bits(rows: int, words: np.ndarray) -> np.ndarray:
-    """One uint8 (0/1) per instance of a bitmap segment."""
-    return np.unpackbits(words.astype("<u8", copy=False).view(np.uint8), count=rows, bitorder="little")
-
-
 def _count(segment) -> int:
     if isinstance(segment, tuple):
-        return int(np.bitwise_count(segment[2]).sum(dtype=np.int64))
+        return count_bits(segment[2])
     return int(segment.shape[0])
 
 
 def _indices(segment) -> np.ndarray:
     if isinstance(segment, tuple):
         first, rows, words = segment
-        return np.flatnonzero(_bits(rows, words)) + np.int64(first)
+        return np.flatnonzero(unpack_bits(rows, words)) + np.int64(first)
     return segment.view(np.int64)  # indices < 2**63: no copy
 
 

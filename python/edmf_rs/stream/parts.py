@@ -106,18 +106,18 @@ def candidates_file(acc, first: int, n_instances: int, offset: int) -> tuple[str
     return out
 
 
-def _bits(rows: int, words: np.ndarray) -> np.ndarray:
+def unpack_bits(rows: int, words: np.ndarray) -> np.ndarray:
     """The first ``rows`` bits of little-endian uint64 ``words``, as booleans."""
     raw = np.ascontiguousarray(words, dtype="<u8").view(np.uint8)
     return np.unpackbits(raw, count=rows, bitorder="little").view(bool)
 
 
-def _count_bits(words: np.ndarray) -> int:
+def count_bits(words: np.ndarray) -> int:
     """Set bits of ``words``, without unpacking them (a byte per instance is
     50 MB for 5e7 instances) where NumPy counts bits itself (2.0 and later)."""
     if hasattr(np, "bitwise_count"):
         return int(np.bitwise_count(words).sum(dtype=np.int64))
-    return int(np.count_nonzero(_bits(len(words) * 64, words)))
+    return int(np.count_nonzero(unpack_bits(len(words) * 64, words)))
 
 
 def check_bitmap(path: Path, words: np.ndarray, n_instances: int, n_candidates: int) -> None:
@@ -126,11 +126,11 @@ def check_bitmap(path: Path, words: np.ndarray, n_instances: int, n_candidates: 
     words, as `load` checked)."""
     tail = n_instances % 64
     past = bool(tail and words.size and int(words[-1]) >> tail)
-    if past or _count_bits(words) != n_candidates:
+    if past or count_bits(words) != n_candidates:
         raise ValueError(f"checkpoint: {path} holds a candidate bitmap with bits past its {n_instances} "
                          f"instances or not {n_candidates} set; delete the folder to start over")
 
 
 def bitmap_mask(words: np.ndarray, n_instances: int) -> np.ndarray:
     """The candidates of a bitmap part (checked by `check_bitmap`) as a boolean mask."""
-    return _bits(n_instances, words)
+    return unpack_bits(n_instances, words)
