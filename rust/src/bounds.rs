@@ -98,12 +98,21 @@ impl Period {
 
     /// `rows` rows of `k` sensors in `vectors` vectors.
     fn of(k: usize, vectors: usize, rows: usize, proper: bool) -> Period {
+        let (low_bits, top_bits) = Self::fields(k, rows);
+        Period { vectors, rows, low_bits, top_bits, proper }
+    }
+
+    /// The field patterns of `rows` rows of `k` sensors: each field's bits
+    /// below its top bit, and its top bit. Inlined, so that a kernel whose
+    /// `k` and `rows` are constants has them as constants (not spilled).
+    #[inline(always)]
+    pub fn fields(k: usize, rows: usize) -> (u128, u128) {
         let (mut low_bits, mut top_bits) = (0u128, 0u128);
         for r in 0..rows {
             low_bits |= ((1u128 << (k - 1)) - 1) << (r * k);
             top_bits |= 1u128 << (r * k + k - 1);
         }
-        Period { vectors, rows, low_bits, top_bits, proper }
+        (low_bits, top_bits)
     }
 }
 

@@ -25,10 +25,28 @@
 //! - The string is `u64` where a period fits (every f64 period; f32 periods
 //!   of up to four vectors) and rows of 5 and 10 sensors shift their fields
 //!   by constants: `u128` words and run-time shifts took several
-//!   instructions each, per period. With diagnostics, f32 rows of 5 and 10
-//!   (80-bit periods) keep their string as two words split at a row
-//!   boundary ([`Split60`]): the field arithmetic then has no carry between
-//!   words (`benches/results-short-rows.txt`, "session 21").
+//!   instructions each, per period. With diagnostics, f32 rows of 5, 10 and
+//!   20 (80-bit periods) keep their string as two words split at a row
+//!   boundary ([`super::split_string::Split60`]): the field arithmetic then
+//!   has no carry between words (`benches/results-short-rows.txt`, "session
+//!   21"), and runs on both words at once in a 128-bit vector register.
+//! - The lanes are compared as "inside" and the string negated once in a
+//!   general register, and on AVX-512 the two strings' short second words
+//!   (outside, and "only by") are counted as one word.
+//!
+//! Why (session 27; `cargo bench --bench core_kernels`, one core from L2,
+//! AMD Zen 4; section "session 27: the kernels alone" of
+//! `benches/results-short-rows.txt`): the loop with diagnostics was bound
+//! by its general-register operations, not by the counts or the NaN test
+//! (taking them out changed nothing there). The field arithmetic of both
+//! words in one vector register, with the second words counted as one
+//! (neither gained alone), made typical f32 rows of 5 and 10 1.13-1.15
+//! times as fast at AVX-512, and rows of 20 (now `Split60` too) 1.36;
+//! comparing "inside" took a mask-register `knot` per vector out of every
+//! loop. Tried and not kept: the NaN test once per 64 periods (a running
+//! sum), and at AVX2 the packed second words (its 32-bit pieces make no
+//! fewer steps); with both, AVX2's worst-case rows ran at 0.8-0.9 of the
+//! speed.
 //!
 //! Why the diagnostics are built this way (kernel alone, `cargo bench --
 //! short_rows`, sections "session 9: cargo bench" and "session 15: cargo
@@ -50,8 +68,7 @@
 //! period, the intervals' pattern and the verdict string are the same.
 
 use super::prefetch::Prefetch;
-use super::bit_string::{any_field, row_fields, spread, BitCounts, BitTally, Bits};
-use super::split_string::Split60;
+use super::bit_string::{any_field, BitCounts, BitTally, Bits};
 pub use super::checksum::{NoSums, SumVectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, SensorBounds, Tally};
@@ -69,6 +86,8 @@ pub trait Vectors<T: Prediction> {
     unsafe fn load(p: *const T) -> Self::V;
     /// Bits of the lanes outside `[low, high]` (NaN is outside). # Safety: as `load`.
     unsafe fn outside(x: Self::V, low: Self::V, high: Self::V) -> u32;
+    /// Bits of the lanes inside `[low, high]` (NaN is not). # Safety: as `load`.
+    unsafe fn inside(x: Self::V, low: Self::V, high: Self::V) -> u32;
     /// Bits of the lanes where `x >= low`, and where `x <= high`. # Safety: as `load`.
     unsafe fn sides(x: Self::V, low: Self::V, high: Self::V) -> (u32, u32);
     /// Bits of the NaN lanes. # Safety: as `load`.
@@ -103,6 +122,10 @@ impl<T: Prediction> Vectors<T> for Avx512Vectors {
     unsafe fn outside(x: T::V512, low: T::V512, high: T::V512) -> u32 {
         let full = u32::MAX >> (32 - T::W512);
         !T::inside512(full, x, low, high) & full
+    }
+    #[inline(always)]
+    unsafe fn inside(x: T::V512, low: T::V512, high: T::V512) -> u32 {
+        T::inside512(u32::MAX >> (32 - T::W512), x, low, high)
     }
     #[inline(always)]
     unsafe fn sides(x: T::V512, low: T::V512, high: T::V512) -> (u32, u32) {
@@ -218,6 +241,17 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             // One cache line a vector, as far ahead as the row kernels.
             pf.line(p.add(v * w));
         }
+        if !NAN {
+            // The inside lanes, negated as one string (see `diagnose_pb`).
+            let mut inside = [0u32; P];
+            for (v, r) in inside.iter_mut().enumerate() {
+                let x = L::load(p.add(v * w));
+                sums.add(x);
+                *r = L::inside(x, self.low[v], self.high[v]);
+            }
+            let every = B::pattern(self.period.low_bits | self.period.top_bits);
+            return (!B::string(&inside, w) & every, B::ZERO);
+        }
         let full = u32::MAX >> (32 - w);
         let (mut out, mut nan) = ([0u32; P], [0u32; P]);
         for v in 0..P {
@@ -319,146 +353,10 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             sink.push((!rejected & all) as u64, rows as u32);
         }
     }
-
-    /// Candidate bits of the first `periods * rows` rows of `data` into
-    /// `out`, their diagnostics into `t` and, when `COUNTS`, their
-    /// rejecting-sensor counts into `counts` (one per row).
-    ///
-    /// Without `COUNTS` there is no per-row work: "rejected by exactly one
-    /// sensor" is field arithmetic on the period's bit string ([`row_fields`]).
-    ///
-    /// # Safety
-    /// As [`Self::screen_any`]; `t` has `k` sensors.
-    #[inline(always)]
-    pub(super) unsafe fn diagnose_any<const COUNTS: bool, S: SumVectors<T, L>>(
-        &self,
-        data: &[T],
-        periods: usize,
-        counts: &mut [u32],
-        out: &mut BitSink,
-        (t, sums): (&mut Tally, &mut S),
-    ) {
-        // A local sink and local sums, as in `screen_any`.
-        let mut local = std::mem::replace(out, BitSink::new(&mut [], 0));
-        let (sink, mut s) = (&mut local, *sums);
-        let t = (t, &mut s);
-        match self.period.vectors {
-            1 => self.diagnose_p::<1, 0, COUNTS, S>(data, periods, counts, sink, t),
-            2 => self.diagnose_p::<2, 0, COUNTS, S>(data, periods, counts, sink, t),
-            3 => self.diagnose_p::<3, 0, COUNTS, S>(data, periods, counts, sink, t),
-            4 => self.diagnose_p::<4, 0, COUNTS, S>(data, periods, counts, sink, t),
-            // Rows of 5 and 10 sensors, the common load tests: field
-            // shifts by a constant (a u128 shift by a run-time count is five
-            // instructions with a branchless fix-up).
-            5 => match self.k {
-                5 => self.diagnose_p::<5, 5, COUNTS, S>(data, periods, counts, sink, t),
-                10 => self.diagnose_p::<5, 10, COUNTS, S>(data, periods, counts, sink, t),
-                _ => self.diagnose_p::<5, 0, COUNTS, S>(data, periods, counts, sink, t),
-            },
-            6 => self.diagnose_p::<6, 0, COUNTS, S>(data, periods, counts, sink, t),
-            7 => self.diagnose_p::<7, 0, COUNTS, S>(data, periods, counts, sink, t),
-            _ => self.diagnose_p::<8, 0, COUNTS, S>(data, periods, counts, sink, t),
-        }
-        (*out, *sums) = (local, s);
-    }
-
-    /// [`Self::diagnose_any`] with `P` vectors a period (see `screen_p`) of rows
-    /// of `K` sensors (0: `self.k`, known at run time).
-    #[inline(always)]
-    unsafe fn diagnose_p<const P: usize, const K: usize, const COUNTS: bool, S: SumVectors<T, L>>(
-        &self,
-        data: &[T],
-        periods: usize,
-        counts: &mut [u32],
-        sink: &mut BitSink,
-        t: (&mut Tally, &mut S),
-    ) {
-        if P * T::W512 <= 64 {
-            self.diagnose_pb::<u64, P, K, COUNTS, S>(data, periods, counts, sink, t)
-        } else if K != 0 && 60 % K == 0 && P * T::W512 - 60 <= 64 {
-            self.diagnose_pb::<Split60, P, K, COUNTS, S>(data, periods, counts, sink, t)
-        } else {
-            self.diagnose_pb::<u128, P, K, COUNTS, S>(data, periods, counts, sink, t)
-        }
-    }
-
-    /// [`Self::diagnose_p`] with the period's bits in `B`.
-    #[inline(always)]
-    unsafe fn diagnose_pb<B: Bits, const P: usize, const K: usize, const COUNTS: bool, S: SumVectors<T, L>>(
-        &self,
-        data: &[T],
-        periods: usize,
-        counts: &mut [u32],
-        sink: &mut BitSink,
-        (t, sums): (&mut Tally, &mut S),
-    ) {
-        let w = T::W512;
-        let (k, rows) = if K == 0 { (self.k, self.period.rows) } else { (K, P * w / K) };
-        assert!(P == self.period.vectors && P * w <= B::BITS && k == self.k && rows == self.period.rows);
-        assert!(data.len() >= periods * rows * k && t.per_sensor.len() == k);
-        assert!(!COUNTS || counts.len() >= periods * rows);
-        let all = u32::MAX >> (32 - rows);
-        // Per bit of the string, the periods that had it set: rejections,
-        // and rejections of rows rejected by that sensor only.
-        let (mut outside, mut only) = (L::Counts::new(), L::Counts::new());
-        let (mut outside_totals, mut only_totals) = ([0u64; 128], [0u64; 128]);
-        let mut pending = 0u32;
-        let mut invalid = 0u64;
-        let pf = L::prefetch();
-        let patterns = (B::pattern(self.period.low_bits), B::pattern(self.period.top_bits));
-        for q in 0..periods {
-            let p = data.as_ptr().add(q * rows * k);
-            let mut rejecting = [0u32; P];
-            for (v, r) in rejecting.iter_mut().enumerate() {
-                pf.line(p.add(v * w));
-                let x = L::load(p.add(v * w));
-                sums.add(x);
-                *r = L::outside(x, self.low[v], self.high[v]);
-            }
-            let bits = B::string(&rejecting, w);
-            if bits == B::ZERO {
-                // Every row a candidate (no NaN either: NaN rejects): no diagnostic work.
-                sink.push(all as u64, rows as u32);
-                if COUNTS {
-                    counts[q * rows..(q + 1) * rows].fill(0);
-                }
-                continue;
-            }
-            // The period's sum is NaN if a value is (or, rarely, if infinities
-            // cancel): only then are the NaN lanes worked out.
-            let mut sum = L::load(p);
-            for v in 1..P {
-                sum = L::add(sum, L::load(p.add(v * w)));
-            }
-            let suspect = L::nan(sum) != 0;
-            let (_, rejected, single) = row_fields(bits, patterns, k);
-            sink.push((!rejected & all) as u64, rows as u32);
-            if COUNTS {
-                for (r, c) in counts[q * rows..(q + 1) * rows].iter_mut().enumerate() {
-                    *c = bits.field(r, k).count_ones();
-                }
-            }
-            if suspect {
-                // Rare: a NaN row is never a candidate, counted once.
-                let (_, nan) = self.period_bits::<B, P, true, NoSums>(p, (&mut NoSums, Prefetch::OFF));
-                invalid += (0..rows).filter(|&r| nan.field(r, k) != 0).count() as u64;
-            }
-            outside = outside.add(bits, P * w);
-            only = only.add(single, P * w);
-            pending += 1;
-            if pending == L::Counts::MAX {
-                outside = outside.flush(&mut outside_totals);
-                only = only.flush(&mut only_totals);
-                pending = 0;
-            }
-        }
-        outside.flush(&mut outside_totals);
-        only.flush(&mut only_totals);
-        spread(&outside_totals, (P * w, B::HI_BASE), k, &mut t.per_sensor);
-        spread(&only_totals, (P * w, B::HI_BASE), k, &mut t.only_by);
-        t.invalid += invalid;
-    }
 }
+
+#[path = "periodic_diagnostics.rs"]
+mod diagnostics;
 
 #[cfg(test)]
 #[path = "periodic_tests.rs"]

@@ -42,6 +42,10 @@ impl<T: Prediction> Vectors<T> for Avx2Vectors {
         !inside & (u32::MAX >> (32 - T::W512))
     }
     #[inline(always)]
+    unsafe fn inside(x: Self::V, low: Self::V, high: Self::V) -> u32 {
+        T::inside256(x[0], low[0], high[0]) | T::inside256(x[1], low[1], high[1]) << (T::W512 / 2)
+    }
+    #[inline(always)]
     unsafe fn sides(x: Self::V, low: Self::V, high: Self::V) -> (u32, u32) {
         let half = T::W512 / 2;
         let (ge0, le0) = T::sides256(x[0], low[0], high[0]);
