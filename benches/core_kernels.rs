@@ -2,9 +2,10 @@
 //! 2,000 calls a round, best of 15 rounds, at every instruction-set level
 //! this CPU runs; GB/s read. No Python and no pool, so a change to a kernel
 //! shows whole (`benches/core_rate.py` times the same through
-//! `Falsifier.update`, whose per-call cost is about a quarter of a call's
-//! time there). `cargo bench --bench core_kernels`; `CORE_KERNELS=f32:10,f64:5`
-//! picks cases.
+//! `Falsifier.update`, where the kernel had three quarters of a `perf`
+//! profile's samples for typical f32 rows of 10 with diagnostics).
+//! `cargo bench --bench core_kernels`; `CORE_KERNELS=f32:10,f64:5` picks
+//! cases.
 //!
 //! Cases as in `core_rate.py`: "worst", every residual inside its interval
 //! (all candidates); "typical", residuals N(0, s) with s such that a row is

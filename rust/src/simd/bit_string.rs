@@ -256,7 +256,9 @@ pub fn spread(totals: &[u64; 128], (n, hi_base): (usize, usize), k: usize, out: 
 /// subtract of -1. Written as `_mm512_mask_add_epi8`, LLVM emits a mask
 /// expansion (`vpmovm2b`) and a plain subtract, two 512-bit operations
 /// instead of one: typical f32 rows of 5 and 10 ran 1.03-1.04 times as fast
-/// with this one (`cargo bench --bench core_kernels`, session 27, Zen 4).
+/// with this one (`cargo bench --bench core_kernels`, Zen 4; section
+/// "session 27: the byte count as one masked subtract" of
+/// `benches/results-short-rows.txt`).
 ///
 /// # Safety
 /// AVX-512F and AVX-512BW are available.

@@ -40,8 +40,9 @@
 //! by its general-register operations, not by the counts or the NaN test
 //! (taking them out changed nothing there). The field arithmetic of both
 //! words in one vector register, with the second words counted as one
-//! (neither gained alone), made typical f32 rows of 5 and 10 1.13-1.15
-//! times as fast at AVX-512, and rows of 20 (now `Split60` too) 1.36;
+//! (neither gained alone), made typical f32 rows of 5, 10 and 20 (now
+//! `Split60` too) faster at AVX-512 (figures in `docs/performance.md`,
+//! "session 27");
 //! comparing "inside" took a mask-register `knot` per vector out of every
 //! loop. Tried and not kept: the NaN test once per 64 periods (a running
 //! sum), and at AVX2 the packed second words (its 32-bit pieces make no
