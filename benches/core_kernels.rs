@@ -4,8 +4,8 @@
 //! shows whole (`benches/core_rate.py` times the same through
 //! `Falsifier.update`, where the kernel had three quarters of a `perf`
 //! profile's samples for typical f32 rows of 10 with diagnostics).
-//! `cargo bench --bench core_kernels`; `CORE_KERNELS=f32:10,f64:5` picks
-//! cases.
+//! `cargo bench --bench core_kernels`; `CORE_KERNELS=f32:10,f64:7` picks
+//! the cases (any widths).
 //!
 //! Cases as in `core_rate.py`: "worst", every residual inside its interval
 //! (all candidates); "typical", residuals N(0, s) with s such that a row is
@@ -90,10 +90,13 @@ fn main() {
     println!("{model}; one thread; {} KiB a call, 2000 calls a round, best of 15 rounds", BYTES / 1024);
     for isa in Isa::available().into_iter().filter(|&i| i != Isa::Portable) {
         println!("{isa:?}: dtype n_m case diagnostics screen (GB/s)");
-        for (dtype, n_m) in [("f64", 5usize), ("f64", 10), ("f64", 16), ("f64", 20), ("f32", 5), ("f32", 10), ("f32", 16), ("f32", 20)] {
-            if picked.as_ref().is_some_and(|p| !p.split(',').any(|c| c == format!("{dtype}:{n_m}"))) {
-                continue;
-            }
+        let default = "f64:5,f64:10,f64:16,f64:20,f32:5,f32:10,f32:16,f32:20";
+        for case in picked.as_deref().unwrap_or(default).split(',') {
+            let Some((dtype, n_m)) = case.split_once(':').and_then(|(d, n)| Some((d, n.parse::<usize>().ok()?)))
+            else {
+                panic!("CORE_KERNELS: expected dtype:n_m pairs such as f32:10, got {case:?}");
+            };
+            assert!(matches!(dtype, "f32" | "f64") && n_m > 0, "CORE_KERNELS: {case:?}");
             for case in ["worst", "typical"] {
                 let size = if dtype == "f32" { 4 } else { 8 };
                 let z = two_sided(0.05f64.powf(1.0 / n_m as f64));

@@ -77,6 +77,30 @@ def test_the_masked_subtract_figure_matches_the_recorded_runs():
     assert f"typical f32 rows of 5 and 10 ran {_span(gains)} times as fast with this one" in doc
 
 
+def _u128() -> dict:
+    """Median GB/s with diagnostics per (version, level, dtype, n_m, case) of
+    the section "session 27: u128 strings" (versions old, 8a697ea, new)."""
+    rates, version = defaultdict(list), None
+    for line in _section("session 27: u128 strings").splitlines():
+        if line.startswith("--- "):
+            version = line.split()[1].rstrip(",")
+        cells = line.split()
+        if len(cells) == 6 and cells[0] in ("Avx512", "Avx2"):
+            rates[(version, *cells[:4])].append(float(cells[4]))
+    assert {len(v) for v in rates.values()} == {3} and {k[0] for k in rates} == {"old", "8a697ea", "new"}
+    return {k: statistics.median(v) for k, v in rates.items()}
+
+
+def test_the_u128_figures_match_the_recorded_runs():
+    m = _u128()
+    back = m[("new", "Avx2", "f32", "16", "worst")] / m[("old", "Avx2", "f32", "16", "worst")]
+    gained = [m[("new", "Avx512", "f32", n, "typical")] / m[("8a697ea", "Avx512", "f32", n, "typical")]
+              for n in ("7", "14")]
+    assert (f"that case then ran {back:.2f} times the old speed, and AVX-512 typical float32 rows of 7 and 14 with "
+            f"diagnostics {_span(gained)} times that of the first commit") in PAGE
+    assert back >= 0.97 and min(gained) > 1
+
+
 def _paired(title: str) -> tuple[re.Match, dict]:
     """The median line and old/new per (n_m, dtype, case, mode) of a paired-builds section."""
     section = _section(title)

@@ -31,8 +31,9 @@
 //!   has no carry between words (`benches/results-short-rows.txt`, "session
 //!   21"), and runs on both words at once in a 128-bit vector register.
 //! - The lanes are compared as "inside" and the string negated once in a
-//!   general register, and on AVX-512 the two strings' short second words
-//!   (outside, and "only by") are counted as one word.
+//!   general register (`u128` strings excepted), and on AVX-512 the two
+//!   strings' short second words (outside, and "only by") are counted as
+//!   one word.
 //!
 //! Why (session 27; `cargo bench --bench core_kernels`, one core from L2,
 //! AMD Zen 4; section "session 27: the kernels alone" of

@@ -105,17 +105,23 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         let every = patterns.0 | patterns.1;
         for q in 0..periods {
             let p = data.as_ptr().add(q * rows * k);
-            let mut inside = [0u32; P];
-            for (v, r) in inside.iter_mut().enumerate() {
+            // Masks of the lanes inside, the string negated once in general
+            // registers (a mask-register `knot` per vector cost more), except
+            // in `u128` strings, whose negation and masking cost more still:
+            // there each vector's mask is negated (section "session 27: u128
+            // strings" of `benches/results-short-rows.txt`).
+            let mut masks = [0u32; P];
+            for (v, r) in masks.iter_mut().enumerate() {
                 pf.line(p.add(v * w));
                 let x = L::load(p.add(v * w));
                 sums.add(x);
-                *r = L::inside(x, self.low[v], self.high[v]);
+                *r = if B::BITS < 128 {
+                    L::inside(x, self.low[v], self.high[v])
+                } else {
+                    L::outside(x, self.low[v], self.high[v])
+                };
             }
-            // Negated as one string, in general registers: per vector, the
-            // negation took a mask-register operation (`knot`), and those,
-            // not the general registers, are what this loop runs short of.
-            let bits = !B::string(&inside, w) & every;
+            let bits = if B::BITS < 128 { !B::string(&masks, w) & every } else { B::string(&masks, w) };
             if bits == B::ZERO {
                 // Every row a candidate (no NaN either: NaN rejects): no diagnostic work.
                 sink.push(all as u64, rows as u32);
