@@ -95,7 +95,7 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         let (mut outside_totals, mut only_totals) = ([0u64; 128], [0u64; 128]);
         let mut pending = 0u32;
         // Strings of two words whose second is at most 32 bits long (f32
-        // rows of 5, 10 and 20 sensors): see `seconds` below.
+        // rows of 5, 10, 20 and 40 sensors): see `seconds` below.
         let pack = L::Counts::PACK && B::BITS > 64 && P * w <= B::HI_BASE + 32;
         let (mut seconds, mut seconds_totals) = (L::Counts::new(), [0u64; 128]);
         let mut invalid = 0u64;
