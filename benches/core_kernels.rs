@@ -2,8 +2,7 @@
 //! 2,000 calls a round, best of 15 rounds, at every instruction-set level
 //! this CPU runs; GB/s read. No Python and no pool, so a change to a kernel
 //! shows whole (`benches/core_rate.py` times the same through
-//! `Falsifier.update`, where the kernel had three quarters of a `perf`
-//! profile's samples for typical f32 rows of 10 with diagnostics).
+//! `Falsifier.update`, whose own work per call adds to every call's time).
 //! `cargo bench --bench core_kernels`; `CORE_KERNELS=f32:10,f64:7` picks
 //! the cases (any widths).
 //!
