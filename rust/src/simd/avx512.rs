@@ -2,194 +2,14 @@
 //! sixteen) with the acceptance intervals, straight into mask registers; the
 //! last lanes of a row are loaded masked, so there is no scalar tail.
 
-use super::prefetch::Prefetch;
+use super::long;
 use super::medium;
 use super::checksum::{Fletcher, FletcherRows, RowsRead};
 use super::periodic::{Avx512Vectors, NoSums, Periodic, SumVectors};
 use super::short::{takes, ShortRows};
 use crate::candidates::BitSink;
-use crate::kernel::{diagnose_impl, screen_impl, via_counts, Prediction, ScreenPlan, SensorBounds, Tally, BLOCK};
+use crate::kernel::{via_counts, Prediction, ScreenPlan, SensorBounds, Tally};
 use crate::matrix::Matrix;
-use std::arch::x86_64::*;
-
-/// Mask of the first `n` lanes (n <= 16).
-#[inline(always)]
-fn prefix(n: usize) -> u32 {
-    (1u32 << n) - 1
-}
-
-/// Rejecting lanes and NaN lanes among `lanes` of the vector of sensors
-/// `j..j + W512` of `row`.
-///
-/// # Safety
-/// AVX-512F is available, the lanes set in `lanes` are within `row` from `j`,
-/// and the acceptance vectors hold `W512` values from `j` (they are padded to
-/// whole blocks, and `j` is a multiple of `W512`).
-#[inline(always)]
-unsafe fn group<T: Prediction>(row: &[T], accept: &[Vec<T>; 2], j: usize, lanes: u32) -> (u32, u32) {
-    let all = u32::MAX >> (32 - T::W512);
-    let p = T::load512(lanes, row.as_ptr().wrapping_add(j));
-    let low = T::load512(all, accept[0].as_ptr().add(j));
-    let high = T::load512(all, accept[1].as_ptr().add(j));
-    (!T::inside512(lanes, p, low, high) & lanes, T::nan512(lanes, p))
-}
-
-/// Adds one to sensor `j + l`'s count for every lane `l` set in `out`,
-/// reading and writing one whole vector: the counts are padded past the last
-/// sensor, u32 lanes for f32 and u64 for f64, one vector of counts per vector
-/// of predictions. Masked loads and stores here cost f32 rows of 50 sensors
-/// two thirds of their speed (AMD EPYC Zen 4: a masked store does not forward
-/// to the next row's load of the same counts, so every row waited for it).
-///
-/// # Safety
-/// AVX-512F is available; `counts` holds `j + W512` counts ([`PaddedCounts`]).
-#[inline(always)]
-unsafe fn add_counts<T: Prediction>(counts: &mut PaddedCounts, j: usize, out: u32) {
-    if T::W512 == 16 {
-        let c = (counts.0.as_mut_ptr() as *mut u32).add(j) as *mut __m512i;
-        let now = _mm512_loadu_si512(c);
-        _mm512_storeu_si512(c, _mm512_mask_add_epi32(now, out as __mmask16, now, _mm512_set1_epi32(1)));
-    } else {
-        let c = counts.0.as_mut_ptr().add(j) as *mut __m512i;
-        let now = _mm512_loadu_si512(c);
-        _mm512_storeu_si512(c, _mm512_mask_add_epi64(now, out as __mmask8, now, _mm512_set1_epi64(1)));
-    }
-}
-
-/// Per-sensor counts padded to whole vectors, for [`add_counts`]: u32 lanes
-/// for f32 rows (in the same buffer), u64 for f64. Flushed into the tally at
-/// least every [`FLUSH_ROWS`] rows, so the u32 lanes cannot overflow.
-struct PaddedCounts(Vec<u64>);
-
-/// Rows between two flushes of [`PaddedCounts`].
-const FLUSH_ROWS: usize = 1 << 16;
-
-impl PaddedCounts {
-    fn new(k: usize) -> Self {
-        PaddedCounts(vec![0; k.div_ceil(16) * 16])
-    }
-
-    /// Adds the counts into `per_sensor` (one per sensor) and zeroes them.
-    fn flush<T: Prediction>(&mut self, per_sensor: &mut [u64]) {
-        if T::W512 == 16 {
-            // SAFETY: the buffer holds twice as many u32 as u64, all initialised.
-            let narrow = unsafe { std::slice::from_raw_parts(self.0.as_ptr() as *const u32, 2 * self.0.len()) };
-            for (t, &c) in per_sensor.iter_mut().zip(narrow) {
-                *t += u64::from(c);
-            }
-        } else {
-            for (t, &c) in per_sensor.iter_mut().zip(&self.0) {
-                *t += c;
-            }
-        }
-        self.0.fill(0);
-    }
-}
-
-/// Rejecting-sensor count, NaN flag and first rejecting sensor of a row (the
-/// last sensor when none rejects); adds every rejection to `counts`.
-///
-/// After candidate rows (`after_candidate`; the caller asks for it after
-/// two in a row), the verdict comes first, one comparison pair a vector and
-/// nothing else (a NaN is outside every interval, so a candidate row holds
-/// none), and only a rejected row is attributed, in a second visit of its
-/// vectors, now in L1. Otherwise the row is attributed in one visit, as
-/// before. Runs of candidates (every instance kept) thus cost about what
-/// screening does: f32 rows of 200 sensors, one thread, from cache, 13.9-14.0
-/// -> 23.6-29.7 M rows/s, most falsified unchanged (`cargo bench -- long_rows`,
-/// AMD EPYC Zen 4, `benches/results-long-rows.txt`). The branch follows the
-/// data's runs; the outcome does not depend on it. The attribution has no
-/// branch on each vector's outcome, which is random from row to row.
-#[inline]
-#[target_feature(enable = "avx512f,popcnt,bmi1")]
-fn diagnose_row<T: Prediction>(
-    row: &[T],
-    b: &SensorBounds,
-    counts: &mut PaddedCounts,
-    after_candidate: bool,
-) -> (u32, bool, usize) {
-    let (k, accept, w) = (row.len(), T::accepted(b), T::W512);
-    assert!(accept[0].len() >= k.div_ceil(BLOCK) * BLOCK && counts.0.len() >= k.div_ceil(w) * w);
-    // Whole vectors, then one masked tail.
-    let (whole, tail) = (k - k % w, prefix(k % w));
-    // SAFETY: AVX-512F is enabled; the intervals are padded (asserted).
-    if after_candidate && unsafe { any_rejecting(row, accept) } == 0 {
-        return (0, false, k.saturating_sub(1));
-    }
-    let (mut n, mut nan, mut first) = (0u32, 0u32, usize::MAX);
-    let pf = Prefetch::FIXED; // see `Prefetch::now` for which kernels choose
-    let mut tally = |j: usize, lanes: u32| {
-        // The first visit of the row asks for the lines ahead, spread as in `any_rejecting`.
-        if !after_candidate {
-            pf.line(row.as_ptr().wrapping_add(j));
-        }
-        // SAFETY: AVX-512F is enabled; the lanes lie below `k`, within `row`,
-        // and the acceptance vectors are padded.
-        let (out, nans) = unsafe { group(row, accept, j, lanes) };
-        // SAFETY: AVX-512F is enabled; `counts` is padded to whole vectors.
-        unsafe { add_counts::<T>(counts, j, out) };
-        n += out.count_ones();
-        // Past the row when this vector has none (not j + 32: a later
-        // vector's rejection would then be attributed to the wrong sensor).
-        let none = ((out == 0) as usize).wrapping_neg(); // all ones if none rejects
-        first = first.min((j + out.trailing_zeros() as usize) | none);
-        nan |= nans;
-    };
-    for j in (0..whole).step_by(w) {
-        tally(j, prefix(w));
-    }
-    if tail != 0 {
-        tally(whole, tail);
-    }
-    (n, nan != 0, first.min(k.saturating_sub(1)))
-}
-
-/// Rejecting lanes of every vector of `row`, or'ed: nonzero iff some sensor
-/// rejects the row (a NaN is outside every interval). Every vector, in
-/// column order, without a branch, each asking first for the line
-/// the prefetch distance past it (`super::prefetch`).
-///
-/// Why not stop at the first rejecting block, most rejecting first, and
-/// prefetch the whole row at its start, as this did: from memory, rows read
-/// whole and in order with the prefetches spread ran faster. The recorded
-/// runs do not take the parts apart; the likely causes are that the plan's
-/// order reads a row's lines out of sequence, that each exit mispredicts, and
-/// that a burst of one prefetch per line (25 for f64 rows of 200) stalls the
-/// loads behind it. Side by side through `falsify` (AMD EPYC Zen 4, 2 threads,
-/// `benches/results-short-rows.txt`, section "session 14: side by side"),
-/// with the slabs sized for the pool as well (`falsifier.rs`), rows of 100
-/// and 200 sensors went from 0.58-0.90 of the read floor to 0.78-1.15. The price is paid from cache, where stopping early saved work:
-/// the kernel alone screening f64 rows of 200 with 91 % rejected went from
-/// 58-60 to 41 M rows/s, with every row a candidate from 28-31 to 41-44
-/// (`cargo bench -- long_rows`, `benches/results-long-rows.txt`, "session 14").
-///
-/// # Safety
-/// AVX-512F is available; the acceptance vectors are padded to whole blocks.
-#[inline(always)]
-unsafe fn any_rejecting<T: Prediction>(row: &[T], accept: &[Vec<T>; 2]) -> u32 {
-    let (k, w) = (row.len(), T::W512);
-    let whole = k - k % w;
-    let (mut any, pf) = (0, Prefetch::FIXED);
-    for j in (0..whole).step_by(w) {
-        pf.line(row.as_ptr().wrapping_add(j));
-        any |= group(row, accept, j, prefix(w)).0;
-    }
-    if whole < k {
-        pf.line(row.as_ptr().wrapping_add(whole));
-        any |= group(row, accept, whole, prefix(k - whole)).0;
-    }
-    any
-}
-
-/// True if any sensor rejects the row (see [`any_rejecting`]).
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn row_rejected<T: Prediction>(row: &[T], b: &SensorBounds) -> bool {
-    let accept = T::accepted(b);
-    assert!(accept[0].len() >= row.len().div_ceil(BLOCK) * BLOCK);
-    // SAFETY: AVX-512F is enabled; the intervals are padded (asserted).
-    unsafe { any_rejecting(row, accept) != 0 }
-}
 
 /// Whether the periodic kernel takes rows `m`: rows stored back to back
 /// whose width has a period (and the tail's kernel takes), on a CPU with
@@ -287,24 +107,14 @@ fn diagnose_bits_pass<T: Prediction, S: RowsRead>(
                 }
             }),
             None => {
-                let mut per_sensor = PaddedCounts::new(m.cols());
+                let mut per_sensor = long::PaddedCounts::new(m.cols());
                 via_counts(m.rows(), counts, sink, |r0, r1, out| {
-                    for s0 in (r0..r1).step_by(FLUSH_ROWS) {
-                        let s1 = (s0 + FLUSH_ROWS).min(r1);
-                        let part = &mut out[s0 - r0..s1 - r0];
-                        // Candidates in a row so far: the verdict comes first after two
-                        // (after one, most falsified rows with candidates scattered
-                        // among them paid for a test they did not need).
-                        let (mut run, mut read) = (0u32, *sums);
-                        diagnose_impl(m.slice_rows(s0, s1), b, part, t, |row, b, _| {
-                            let verdict = diagnose_row(row, b, &mut per_sensor, run >= 2);
-                            run = if verdict.0 == 0 { run.saturating_add(1) } else { 0 };
-                            // SAFETY: AVX-512F is enabled.
-                            unsafe { read.rows_read(row.as_ptr_range().end as *const u8) };
-                            verdict
-                        });
-                        *sums = read;
-                        per_sensor.flush::<T>(&mut t.per_sensor);
+                    for s0 in (r0..r1).step_by(long::FLUSH_ROWS) {
+                        let s1 = (s0 + long::FLUSH_ROWS).min(r1);
+                        let rows = m.slice_rows(s0, s1);
+                        // SAFETY: AVX-512F, POPCNT and BMI1 are enabled; the
+                        // intervals are padded; at most FLUSH_ROWS rows.
+                        unsafe { long::diagnose(rows, b, &mut out[s0 - r0..s1 - r0], (t, sums), &mut per_sensor) };
                     }
                 });
             }
@@ -454,16 +264,8 @@ fn screen_rows<T: Prediction, S: RowsRead>(
         // SAFETY: as in `diagnose_bits`.
         unsafe { ShortRows::<T>::new(b, m.packed_rows().is_some()).screen(m, sink, sums) };
     } else {
-        via_counts(m.rows(), None, sink, |r0, r1, out| {
-            let mut read = *sums;
-            screen_impl(m.slice_rows(r0, r1), b, plan, out, |row| {
-                let rejected = row_rejected(row, b);
-                // SAFETY: AVX-512F is enabled.
-                unsafe { read.rows_read(row.as_ptr_range().end as *const u8) };
-                rejected
-            });
-            *sums = read;
-        })
+        // SAFETY: AVX-512F is enabled; the intervals are padded.
+        via_counts(m.rows(), None, sink, |r0, r1, out| unsafe { long::screen(m.slice_rows(r0, r1), (b, plan), out, sums) })
     }
 }
 

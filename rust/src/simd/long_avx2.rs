@@ -6,7 +6,7 @@
 //! counts are counted per bit of that string in byte lanes, 32 sensors a
 //! register (`periodic_avx2::bit_bytes`), and added to the tally every 255
 //! rows. After four candidates in a row the verdict comes first (as
-//! `avx512::diagnose_row` does after two). With diagnostics, rows of 9-64
+//! `long::attribute` does after two). With diagnostics, rows of 9-64
 //! sensors stored one after another go to `medium_avx2` instead; these
 //! keep rows of more than 64 and rows not stored that way.
 //!

@@ -6,7 +6,7 @@
 //! 64-bit word (violation count = popcount of its complement), and "falsified
 //! only by" is one add in memory at the row's lowest rejecting sensor.
 //!
-//! Why: the long-row loop (`avx512::diagnose_row`) reloads the intervals and
+//! Why: the long-row loop (then `avx512::diagnose_row`, now `long`) reloads the intervals and
 //! updates the counts in memory for every vector of every row, and finds the
 //! first rejecting sensor with a chain of minimums: about 110 cycles per row
 //! of 50 f32 sensors (AMD EPYC Zen 4), a third of the read floor. Counting

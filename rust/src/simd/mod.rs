@@ -23,6 +23,7 @@ pub mod bit_counts;
 mod bit_string;
 pub mod checksum;
 pub mod cpu;
+mod long;
 pub mod long_avx2;
 pub mod medium;
 pub mod medium_avx2;
