@@ -1,4 +1,4 @@
-//! The short-row kernels alone on one core, from L2: 240 KiB of rows a call,
+//! The row kernels alone on one core, from L2: 240 KiB of rows a call,
 //! 2,000 calls a round, best of 15 rounds, at every instruction-set level
 //! this CPU runs; GB/s read. No Python and no pool, so a change to a kernel
 //! shows whole (`benches/core_rate.py` times the same through

@@ -109,7 +109,7 @@ def test_session_20_medium_kernel_figures_match_the_recorded_runs():
     assert min(rates[("new", "typical/diagnose/f32")]) > max(rates[("old", "typical/diagnose/f32")])
     assert max(rates[("new", "worst/diagnose/f64")]) < min(rates[("old", "worst/diagnose/f64")])
 
-    paired = text.split("\n=== session 20: the AVX2 medium kernel through")[1]
+    paired = text.split("\n=== session 20: the AVX2 medium kernel through")[1].split("\n=== ")[0]
     ratio = {(n, d, c): float(r) for n, d, c, r in
              re.findall(r"^\s*(\d+) (f\d\d)\s+(\w+) diag .*old/new paired ([\d.]+)$", paired, re.M)}
     assert len(ratio) == 20

@@ -368,7 +368,7 @@ def test_session_14_figures_match_the_recorded_runs():
             f"{max(controls['old']):.2f} before and {min(controls['main']):.2f}-{max(controls['main']):.2f} after") in page
     long = {v: [x for (ver, c), xs in values.items() if ver == v and c.split()[0] in ("100", "200") for x in xs]
             for v in ("old", "main")}
-    kernel = " ".join((ROOT / "rust" / "src" / "simd" / "avx512.rs").read_text().replace("///", "").split())
+    kernel = " ".join((ROOT / "rust" / "src" / "simd" / "long.rs").read_text().replace("///", "").split())
     assert (f"rows of 100 and 200 sensors went from {min(long['old']):.2f}-{max(long['old']):.2f} of the read floor "
             f"to {min(long['main']):.2f}-{max(long['main']):.2f}") in kernel
     # The kernel alone from cache.

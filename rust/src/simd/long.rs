@@ -11,11 +11,12 @@
 //!
 //! Why: the row-at-a-time loop this replaces (`avx512::diagnose_row`) read
 //! the intervals and updated the counts in memory for every vector of every
-//! row; taking the update out alone made typical float32 rows of 200 sensors
-//! with diagnostics run 1.48 times as fast, gathering the words alone gained
-//! nothing (kernel alone, one core, AMD EPYC Zen 4). Why two rows, not
-//! four: four ran as fast alone, but through memory typical float64 rows of
-//! 200 with diagnostics then took 0.86-0.89 of the old speed, two 0.99-1.01.
+//! row. Gathering the words alone gained nothing; with them gathered, taking
+//! the count update out made typical float32 rows of 200 sensors with
+//! diagnostics run 1.48 times as fast (kernel alone, one core, AMD EPYC
+//! Zen 4). Why two rows, not four: four ran as fast or faster alone, but through
+//! memory typical float64 rows of 200 with diagnostics then ran at 0.87-0.89
+//! of the old kernel's speed, two at 0.99-1.01.
 //! Measurements: `benches/results-long-rows.txt`, sections "session 28".
 
 use super::checksum::RowsRead;
