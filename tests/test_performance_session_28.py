@@ -199,3 +199,17 @@ def test_the_readme_figures_match_the_recorded_runs():
     side = _section(SHORT_ROWS, "session 28: side by side")
     paired = float(re.search(r"^\s*200 f64\s+worst\s+scr\s+floor.*paired ([\d.]+)$", side, re.M)[1])
     assert abs(paired - 1) < 0.03 and "side by side in one process the two builds ran alike on that case" in README
+
+
+def test_the_prefetch_scan_matches_the_recorded_runs():
+    scan = _section(LONG_ROWS, "session 28: the long rows' prefetch")
+    spans = {}
+    for part in scan.split("--- c1f86e7 (t1:8192) vs ")[1:]:
+        name = part.split()[0]
+        spans[name] = [float(r) for r in re.findall(r"old/new paired ([\d.]+)$", part, re.M)]
+        assert len(spans[name]) == 4
+    assert set(spans) == {"off", "nta4k", "t1_16k", "t0_8k", "t1_4k", "t2_8k"}
+    best = max(spans, key=lambda n: statistics.median(spans[n]))
+    assert best == "t2_8k" and max(spans[best]) < 1.05
+    assert (f"time(theirs) / time(other) was {_span(spans['off'])} with none, {_span(spans['nta4k'])} with the "
+            f"short-row kernels' non-temporal 4 KiB, and {_span(spans[best])} at best (t2:8192)") in PAGE
