@@ -42,6 +42,14 @@ def _alone() -> dict:
     return found
 
 
+def _long_rows(a: dict) -> tuple[list[float], list[float]]:
+    """Paired new/old of the changed AVX-512 kernels: with diagnostics (rows of
+    65, 100 and 200 sensors) and screened (rows of 50-200)."""
+    cases = [(d, c) for d in ("f32", "f64") for c in ("worst", "typical")]
+    return ([a[("Avx512", d, n, c)][0] for d, c in cases for n in ("65", "100", "200")],
+            [a[("Avx512", d, n, c)][1] for d, c in cases for n in ("50", "65", "100", "200")])
+
+
 def test_the_long_row_doc_figures_match_the_recorded_runs():
     where = _section(LONG_ROWS, "session 28: where the long rows' diagnostics went")
     second = where.split("--- second run")[1]
@@ -61,10 +69,7 @@ def test_the_long_row_doc_figures_match_the_recorded_runs():
 
 def test_the_kernel_alone_figures_match_the_recorded_runs():
     a = _alone()
-    long_diag = [a[("Avx512", d, n, c)][0] for d in ("f32", "f64") for n in ("65", "100", "200")
-                 for c in ("worst", "typical")]
-    screened = [a[("Avx512", d, n, c)][1] for d in ("f32", "f64") for n in ("50", "65", "100", "200")
-                for c in ("worst", "typical")]
+    long_diag, screened = _long_rows(a)
     # Unchanged: every AVX2 kernel, the periodic kernel (rows of 10), the medium kernel (rows of 50, diagnostics).
     controls = [r[i] for k, r in a.items() for i in (0, 1) if k[0] == "Avx2" or k[2] == "10" or (k[2], i) == ("50", 0)]
     assert min(long_diag) > 1 and min(screened) > 1
@@ -99,16 +104,16 @@ def test_the_side_by_side_figures_match_the_recorded_runs():
             f"{_span(f32)} for float32 rows of 65-200, typical, with diagnostics") in PAGE
 
 
-def _floor_tables() -> tuple[dict, list[float]]:
-    """Speed / floor of each of the six runs per (level, n_m, dtype, case,
-    mode) of "session 28 final code" and "session 28 AVX2 final code", and
-    the floor's times (one a case and run)."""
+def _floor_tables(session: str = "28", n_runs: int = 6) -> tuple[dict, list[float]]:
+    """Speed / floor of each run per (level, n_m, dtype, case, mode) of
+    "session <session> final code" and "session <session> AVX2 final code"
+    (`n_runs` each), and the floor's times (one a case and run)."""
     ratios, floors = {}, []
-    for level, prefix in (("avx512", "session 28 final code"), ("avx2", "session 28 AVX2 final code")):
+    for level, prefix in (("avx512", f"session {session} final code"), ("avx2", f"session {session} AVX2 final code")):
         runs = [s for s in SHORT_ROWS.split("\n=== ") if s.startswith(prefix)]
-        assert len(runs) == 6
+        assert len(runs) == n_runs
         for key, values in _cases_table(runs).items():
-            assert len(values) == 6
+            assert len(values) == n_runs
             ratios[(level, *key)] = values
         floors += [float(m[5]) for run in runs for m in map(ROW.match, run.splitlines()) if m][::2]
     assert len(ratios) == 80
@@ -149,10 +154,7 @@ def test_the_float64_rows_of_200_worst_case_figures_match_the_recorded_runs():
     medians = {k: statistics.median(v) for k, v in ratios.items()}
     missed = [k for k, m in medians.items() if m < _target(k[1], k[3], k[4])]
     others = [medians[k] for k in missed if k != (*case, "no diagnostics")]
-    before = {}
-    for level, prefix in (("avx512", "session 27 final code"), ("avx2", "session 27 AVX2 final code")):
-        runs = [s for s in SHORT_ROWS.split("\n=== ") if s.startswith(prefix)]
-        before.update({(level, *k): statistics.median(v) for k, v in _cases_table(runs).items()})
+    before = {k: statistics.median(v) for k, v in _floor_tables("27", 3)[0].items()}
     assert (f"The other nine read {_span(others)} by the median, and session 27's table had the same ten cases at "
             f"{_span([before[k] for k in missed])}") in PAGE
     # The runs whose floor read fastest: the floor's and the screening's times.
@@ -179,11 +181,7 @@ def test_the_float64_rows_of_200_worst_case_figures_match_the_recorded_runs():
 
 
 def test_the_readme_figures_match_the_recorded_runs():
-    a = _alone()
-    long_diag = [a[("Avx512", d, n, c)][0] for d in ("f32", "f64") for n in ("65", "100", "200")
-                 for c in ("worst", "typical")]
-    screened = [a[("Avx512", d, n, c)][1] for d in ("f32", "f64") for n in ("50", "65", "100", "200")
-                for c in ("worst", "typical")]
+    long_diag, screened = _long_rows(_alone())
     median = re.search(r"old/new paired, median over (\d+) cases: ([\d.]+)", _section(SHORT_ROWS, "session 28: side by side"))
     assert (f"Alone on one core those kernels ran {_span(long_diag)} times as fast with diagnostics (rows of 65-200 "
             f"sensors) and {_span(screened)} screened (rows of 50-200); through memory, where most of these cases "
