@@ -211,3 +211,11 @@ def test_the_prefetch_scan_matches_the_recorded_runs():
     assert best == "t2_8k" and max(spans[best]) < 1.05
     assert (f"time(theirs) / time(other) was {_span(spans['off'])} with none, {_span(spans['nta4k'])} with the "
             f"short-row kernels' non-temporal 4 KiB, and {_span(spans[best])} at best (t2:8192)") in PAGE
+
+
+def test_the_generic_body_figure_matches_the_recorded_runs():
+    review = _section(LONG_ROWS, "session 28 review: one generic body")
+    screened = [float(r) for r in re.findall(r"mended [\d.]+/([\d.]+)$", review, re.M)]
+    assert len(screened) == 20 and max(screened) < 1
+    code = " ".join((ROOT / "rust" / "src" / "simd" / "long.rs").read_text().replace("//", "").split())
+    assert f"one generic body over both widths screened at {_span(screened)} of this speed alone" in code

@@ -286,8 +286,9 @@ pub(super) unsafe fn diagnose<T: Prediction, S: RowsRead>(
         }
     }
     // The last row alone, as the pairs above (and in `screen`): one generic
-    // body over both widths measured 0.93-0.97 of this speed screening rows of
-    // 65 and 200 alone (ad hoc, not recorded), so the loops stay written out.
+    // body over both widths screened at 0.89-0.99 of this speed alone on a
+    // core (`benches/results-long-rows.txt`, "session 28 review"), so the
+    // loops stay written out.
     for i in groups * GROUP..m.rows() {
         let row = m.row_slice(i).expect("contiguous rows (checked above)");
         let [(n, nan, first)] = attribute([row], b, counts, run >= VERDICT_FIRST);
