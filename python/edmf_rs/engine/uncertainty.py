@@ -24,10 +24,11 @@ from ._validate import check_seed, finite_vector, fits_in_memory, positive_int
 class CombinedUncertainty:
     """The combined uncertainty U_c of every sensor (Eq. 4), as made by `combine`.
 
-    Exact when every source is normal (``distribution``, a normal vectorised
-    over the sensors), otherwise Monte Carlo ``samples`` for every sensor, with
-    the exact ``marginals`` kept where known. Pass it to `threshold_bounds`,
-    which uses the exact marginal where there is one and the samples elsewhere.
+    Exact when every source is normal or of scale 0, a fixed offset
+    (``distribution``, a normal vectorised over the sensors), otherwise Monte
+    Carlo ``samples`` for every sensor, with the exact ``marginals`` kept where
+    known. Pass it to `threshold_bounds`, which uses the exact marginal where
+    there is one and the samples elsewhere.
 
     Attributes
     ----------
@@ -41,7 +42,8 @@ class CombinedUncertainty:
         else None.
     marginals : list or None
         Per sensor, ``(sign, frozen distribution)`` when the sensor's sources
-        are all normal or it has a single source, else None.
+        are all normal or it has a single source, else None; sources of scale
+        0 are not counted, their offset is in the distribution's location.
     symmetric, gaussian : numpy.ndarray of bool
         Sensors whose every source is symmetric about its mean (so U_c is),
         and those whose every source is normal.
@@ -49,8 +51,9 @@ class CombinedUncertainty:
         The seed the samples were drawn with (None when a Generator was passed).
     sources : tuple or None
         Per sensor, its sources as ``(sign, frozen scalar distribution)``
-        (sign -1 for a measurement source, Eq. 4), when not exact:
-        `threshold_bounds` convolves them numerically
+        (sign -1 for a measurement source, Eq. 4), when not exact; sources of
+        scale 0 are left out, their offset folded into the first one's
+        location. `threshold_bounds` convolves them numerically
         (`edmf_rs.engine.convolution`).
     exact : bool
         True when ``distribution`` is given.
@@ -156,6 +159,12 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     sensor with a single source keeps that source's distribution, even when
     other sensors need Monte Carlo samples.
 
+    A source of scale 0, of any family (e.g. ``scipy.stats.uniform(c, 0)``),
+    is the constant c: it shifts U_c by +c (model) or -c (measurement), and
+    U_c is otherwise combined as if it were absent, so normal sources plus
+    fixed offsets stay exact. A sensor whose every source has scale 0 is
+    refused.
+
     Parameters
     ----------
     model, measurement : source or list of sources
@@ -164,7 +173,8 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         sensors, e.g. from `relative_to_measured`), or a list of n_m scalar
         frozen distributions, one per sensor.
     n_samples : int, default 200_000
-        Monte Carlo samples of U_c when some source is not normal.
+        Monte Carlo samples of U_c when some source is neither normal nor of
+        scale 0.
     seed : int >= 0, numpy.random.Generator or None, default 0
         Seed of those samples (fixed by default, so two identical calls give
         identical samples and bounds); recorded on the result.
@@ -174,9 +184,9 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     Returns
     -------
     CombinedUncertainty
-        Exact (a normal per sensor) when every source is normal, otherwise
-        ``n_samples`` Monte Carlo samples of U_c per sensor, with the sources
-        kept, so that `threshold_bounds` can convolve them instead.
+        Exact (a normal per sensor) when every source is normal or of scale
+        0, otherwise ``n_samples`` Monte Carlo samples of U_c per sensor, with
+        the sources kept, so that `threshold_bounds` can convolve them instead.
 
     Raises
     ------
@@ -215,6 +225,13 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
     ...                      n_sensors=3, n_samples=10_000)
     >>> uc.exact, uc.seed, uc.samples.shape, bool(uc.symmetric.all())
     (False, 0, (10000, 3), True)
+
+    A uniform of zero width is a fixed offset: U_c stays an exact normal.
+
+    >>> uc = edmf_rs.combine(model=[stats.norm(0, 0.3), stats.uniform(0.5, 0)], measurement=stats.norm(0, 0.4),
+    ...                      n_sensors=3)
+    >>> uc.exact, uc.mean.tolist(), uc.std.round(3).tolist()
+    (True, [0.5, 0.5, 0.5], [0.5, 0.5, 0.5])
     """
     seed = check_seed(seed, generator=True)
     sources = []
@@ -252,10 +269,24 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
                 stacklevel=2,
             )
 
-    if all(s[2] is not None and s[2].dist.name == "norm" for s in sources):
+    # A source of scale 0, of any family, is the constant loc (X = loc + scale Z; scipy reports its mean
+    # and quantiles as NaN): it shifts U_c by +loc (model) or -loc (measurement), Eq. 4, and the method
+    # is chosen as if it were absent, so a fixed offset never forces Monte Carlo on its own.
+    offset = np.zeros(n_m)  # of the sources of scale 0 at every sensor, left out below
+    spread_sources = []
+    for src in sources:
+        sign, _, dist, _, _ = src
+        if dist is not None:
+            loc, scale = _loc_scale(dist)
+            if np.all(scale == 0):
+                offset += sign * loc
+                continue
+        spread_sources.append(src)
+
+    if all(s[2] is not None and s[2].dist.name == "norm" for s in spread_sources):
         # Every source a (vectorised) normal: sum the moments as arrays, no per-sensor objects.
-        mean, var = np.zeros(n_m), np.zeros(n_m)
-        for sign, _, dist, _, name in sources:
+        mean, var = offset.copy(), np.zeros(n_m)
+        for sign, _, dist, _, name in spread_sources:
             loc, scale = _normal_parameters(dist, n_m)
             mean += sign * loc
             var += scale**2
@@ -265,26 +296,36 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)),
                                    seed=_seed_record(seed), gaussian=np.ones(n_m, dtype=bool),
                                    symmetric=np.ones(n_m, dtype=bool))
-    per_sensor = [s[1] or intervals.split(s[2], n_m) for s in sources]
-    normal = [all(group[j].dist.name == "norm" for group in per_sensor) for j in range(n_m)]
+    # Per sensor, the sources with a spread there; an entry of scale 0 (of a per-sensor list, or of a
+    # source vectorised over the sensors) joins the shift instead.
+    shift = offset.copy()
+    active = [[] for _ in range(n_m)]
+    for sign, group, dist, _, _ in spread_sources:
+        for j, d in enumerate(group or intervals.split(dist, n_m)):
+            loc, scale = _loc_scale(d)
+            if scale == 0:
+                shift[j] += sign * loc
+            else:
+                active[j].append((sign, d))
+    normal = [all(d.dist.name == "norm" for _, d in a) for a in active]
     if all(normal):
-        mean, sd = _normal_sum(sources, per_sensor, range(n_m))
+        mean, sd = _normal_sum(active, shift, range(n_m))
         return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=sd), seed=_seed_record(seed),
                                    gaussian=np.ones(n_m, dtype=bool), symmetric=np.ones(n_m, dtype=bool))
 
     marginals = []
     for j in range(n_m):
         if normal[j]:
-            mean, sd = _normal_sum(sources, per_sensor, [j])
+            mean, sd = _normal_sum(active, shift, [j])
             marginals.append((1.0, stats.norm(mean[0], sd[0])))
-        elif len(sources) == 1:
-            marginals.append((sources[0][0], per_sensor[0][j]))
+        elif len(active[j]) == 1:
+            marginals.append(_fold(active[j], shift[j])[0])
         else:
             marginals.append(None)
-    symmetric = np.array([all(intervals.is_symmetric(group[j]) for group in per_sensor) for j in range(n_m)])
+    symmetric = np.array([all(intervals.is_symmetric(d) for _, d in a) for a in active])
     rng = np.random.default_rng(seed)
     samples = np.zeros((n_samples, n_m))
-    for sign, group, dist, _, name in sources:
+    for sign, group, dist, _, name in spread_sources:
         if dist is not None:
             draws = dist.rvs(size=(n_samples, n_m), random_state=rng)
         else:
@@ -295,7 +336,8 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
             samples += draws
         else:
             samples -= draws
-    per_sensor_sources = tuple(tuple((s[0], group[j]) for s, group in zip(sources, per_sensor)) for j in range(n_m))
+    samples += offset  # entries of scale 0 inside the sources drawn were drawn as their loc
+    per_sensor_sources = tuple(_fold(a, shift[j]) for j, a in enumerate(active))
     return CombinedUncertainty(n_m, samples=samples, marginals=tuple(marginals), symmetric=symmetric,
                                gaussian=np.array(normal), seed=_seed_record(seed), sources=per_sensor_sources)
 
@@ -304,8 +346,9 @@ def _check_sources(sources, n_m: int, n_samples, size_name: str):
     """Refuses, up front, parameters scipy would turn into NaN, a sensor whose
     every source has scale 0, and sizes past this machine's memory
     (n_sensors = 10**12 once swapped for hours). Returns n_samples, checked
-    when Monte Carlo samples are drawn (some source not normal)."""
-    sampled = not all(d.dist.name == "norm" for _, per, dist, _, _ in sources for d in (per or [dist]))
+    when Monte Carlo samples are drawn (some source not normal and not of scale 0, a fixed offset)."""
+    sampled = any(d.dist.name != "norm" and np.any(_loc_scale(d)[1] != 0)
+                  for _, per, dist, _, _ in sources for d in (per or [dist]))
     if sampled:
         n_samples = positive_int(n_samples, "n_samples")
         fits_in_memory(16 * n_samples * n_m, size_name, f"{n_samples:,} Monte Carlo samples at {n_m:,} sensors "
@@ -331,19 +374,39 @@ def _seed_record(seed):
     return seed
 
 
-def _normal_sum(sources, per_sensor, sensors) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and sd of sum(model) - sum(measurement) at ``sensors``, every source normal."""
+def _normal_sum(active, shift, sensors) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and sd of ``shift`` + sum(model) - sum(measurement) at ``sensors``, every
+    source in ``active`` (per sensor, its ``(sign, normal)`` sources) normal."""
     sensors = list(sensors)
-    mean = np.zeros(len(sensors))
+    mean = np.array([shift[j] for j in sensors], dtype=float)
     var = np.zeros(len(sensors))
-    for (sign, *_), group in zip(sources, per_sensor):
-        loc, scale = np.array([_normal_parameters(group[j]) for j in sensors]).reshape(-1, 2).T
-        mean += sign * loc
-        var += scale**2
+    for k, j in enumerate(sensors):
+        for sign, d in active[j]:
+            loc, scale = _normal_parameters(d)
+            mean[k] += sign * loc
+            var[k] += scale**2
     if not np.all(var > 0):
         i = sensors[int(np.flatnonzero(~(var > 0))[0])]
         raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
     return mean, np.sqrt(var)
+
+
+def _loc_scale(dist) -> tuple[np.ndarray, np.ndarray]:
+    """(loc, scale) of a frozen distribution as scipy parses them (positional or keyword),
+    not broadcast over the sensors: with scale 0 the distribution is the constant loc."""
+    _, loc, scale = dist.dist._parse_args(*dist.args, **dist.kwds)
+    return np.asarray(loc, dtype=float), np.asarray(scale, dtype=float)
+
+
+def _fold(active, shift: float) -> tuple:
+    """One sensor's ``(sign, distribution)`` sources with the constant ``shift`` folded into
+    the first one's location (sign * (X + sign * c) = sign * X + c), so that its marginal or
+    convolution is that of the sources with spread, moved by the fixed offsets."""
+    if shift == 0:
+        return tuple(active)
+    (sign, d), *rest = active
+    shapes, loc, scale = d.dist._parse_args(*d.args, **d.kwds)
+    return ((sign, d.dist(*shapes, loc=loc + sign * shift, scale=scale)), *rest)
 
 
 def _normal_parameters(dist, n: int | None = None):
