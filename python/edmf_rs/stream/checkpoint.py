@@ -29,6 +29,7 @@ from .. import _core
 from . import chunks, parts
 from . import state as state_file
 from .atomic import deferred_sigint
+from .chunks import digestible
 from .folder_lock import LOCK, FolderLock, folder_path
 
 STATE = state_file.STATE
@@ -64,17 +65,6 @@ class CheckpointError(OSError):
     >>> isinstance(exc, OSError), exc.errno == errno.ENOSPC
     (True, True)
     """
-
-
-def digestible(rows) -> np.ndarray:
-    """``rows`` as a 2-D float32/float64 array the Rust digest reads in place."""
-    arr = np.asarray(rows)
-    arr = arr[:, None] if arr.ndim == 1 else arr
-    if (arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative or not arr.flags.aligned
-            or any(s < 0 for s in arr.strides)):
-        # a copy, always: ascontiguousarray returns an empty array with negative strides unchanged
-        arr = np.array(arr, dtype=np.float32 if chunks.single(arr.dtype) else np.float64, order="C")
-    return arr
 
 
 class Checkpoint:
@@ -259,49 +249,15 @@ class Checkpoint:
             "checked"
         )
 
-    def part_path(self, k: int, name: str):
-        return self.folder / parts.name(k, name)
-
     def saved(self, n_sensors: int) -> dict[str, object]:
         """The finished run read back from the parts (each checked against
         its checksum, dtype, shape and range), as the keyword arguments of a
         ``FalsificationResult`` (without thresholds and measurements), but for
         ``candidate_segments``: the candidates, part by part, as
         ``CandidateSegments`` takes them (bitmap parts stay bitmaps)."""
-        names = ("candidates",) + self.fields
-        pieces: dict[str, list[np.ndarray]] = {name: [] for name in names}
-        first = 0
-        widths = {"parameters": self.extra.get("n_parameters"), "predictions": n_sensors}
-        for k, part in enumerate(self.parts):
-            n, form = part["n_instances"], part.get("candidates")
-            if form not in parts.FORMS:
-                raise ValueError(f"checkpoint: {self.folder / STATE} gives part {k} candidates of form {form!r}, "
-                                 f"expected one of {sorted(parts.FORMS)}; delete the folder to start over")
-            loaded = {}
-            for name in names:
-                rows = {"n_violated": n, "candidates": -(-n // 64) if form == "bitmap" else part["n_candidates"]}
-                loaded[name] = parts.load(self.part_path(k, name), part["sha256"][name], name,
-                                          rows.get(name, part["n_candidates"]), widths.get(name),
-                                          parts.FORMS[form] if name == "candidates" else None)
-            path = self.part_path(k, "candidates")
-            if form == "bitmap":
-                words = loaded["candidates"]
-                parts.check_bitmap(path, words, n, part["n_candidates"])
-                loaded["candidates"] = (first, n, words)
-                mask = parts.bitmap_mask(words, n) if "n_violated" in loaded else None  # only to check the counts
-            else:
-                parts.check_candidates(path, loaded["candidates"], first, n)
-                mask = loaded["candidates"] - first  # indexes the part's instances like the bitmap's mask
-            if "n_violated" in loaded:
-                parts.check_violations(self.part_path(k, "n_violated"), loaded["n_violated"], n_sensors, mask)
-            for name in names:
-                pieces[name].append(loaded[name])
-            first += n
-        empty = {"n_violated": np.empty(0, np.int32),
-                 "parameters": np.empty((0, self.extra.get("n_parameters", 0))),
-                 "predictions": np.empty((0, n_sensors))}
-        segments = [c if isinstance(c, tuple) else c.astype(np.uint64) for c in pieces.pop("candidates")]
-        arrays = {name: _readonly(np.concatenate(p) if p else empty[name]) for name, p in pieces.items()}
+        segments, arrays = parts.read_run(self.folder, self.parts, self.fields, n_sensors,
+                                          self.extra.get("n_parameters"))
+        arrays = {name: _readonly(arr) for name, arr in arrays.items()}
         t = self.tally
         return {
             "n_instances": self.n_done,
@@ -355,21 +311,12 @@ class Checkpoint:
                 files["n_violated"] = acc.take_violations().view(np.int32)
             for name, rows in arrays.items():
                 files[name] = np.concatenate(rows)
-        tally = acc.tally()
-        if tally is not None:
-            base = self._base_tally or {"per_sensor_falsified": 0, "falsified_only_by": 0, "n_invalid": 0}
-            tally = {
-                "per_sensor_falsified": (np.asarray(base["per_sensor_falsified"], np.int64)
-                                         + tally[0].astype(np.int64)).tolist(),
-                "falsified_only_by": (np.asarray(base["falsified_only_by"], np.int64)
-                                      + tally[1].astype(np.int64)).tolist(),
-                "n_invalid": int(base["n_invalid"]) + int(tally[2]),
-            }
+        tally = state_file.add_tally(self._base_tally, acc.tally())
         self._refuse_foreign((parts.name(len(self.parts), name) for name in files), CheckpointError)
         target, written, sums = None, [], {}
         try:
             for name, arr in files.items():
-                target = self.part_path(len(self.parts), name)
+                target = self.folder / parts.name(len(self.parts), name)
                 self._claimable.add(target.name)
                 sums[name] = save_npy(target, arr)
                 written.append(target)

@@ -17,6 +17,17 @@ from . import npy
 Skipped = Callable[[int, np.ndarray], None]
 
 
+def digestible(rows) -> np.ndarray:
+    """``rows`` as a 2-D float32/float64 array the Rust digest reads in place."""
+    arr = np.asarray(rows)
+    arr = arr[:, None] if arr.ndim == 1 else arr
+    if (arr.dtype not in (np.float32, np.float64) or not arr.dtype.isnative or not arr.flags.aligned
+            or any(s < 0 for s in arr.strides)):
+        # a copy, always: ascontiguousarray returns an empty array with negative strides unchanged
+        arr = np.array(arr, dtype=np.float32 if single(arr.dtype) else np.float64, order="C")
+    return arr
+
+
 def checked_array(chunk, n_sensors: int, name: str = "predictions") -> np.ndarray:
     """``chunk`` as an array whose dtype is numeric and whose shape is
     (instances, n_sensors); nothing is converted or copied."""

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from . import atomic
+from .state import STATE
 
 #: How a part stores its candidates: ``indices`` (int64, one per candidate)
 #: or ``bitmap`` (uint64 words, bit ``i % 64`` of word ``i // 64`` set iff
@@ -134,3 +135,44 @@ def check_bitmap(path: Path, words: np.ndarray, n_instances: int, n_candidates: 
 def bitmap_mask(words: np.ndarray, n_instances: int) -> np.ndarray:
     """The candidates of a bitmap part (checked by `check_bitmap`) as a boolean mask."""
     return unpack_bits(n_instances, words)
+
+
+def read_run(folder: Path, listed: list[dict], fields: tuple[str, ...], n_sensors: int,
+             n_parameters: int | None) -> tuple[list, dict[str, np.ndarray]]:
+    """A finished run's parts (``listed``: the state's ``parts``), each checked
+    against its checksum, dtype, shape and range: the candidates part by part,
+    as ``CandidateSegments`` takes them (bitmap parts stay bitmaps, as
+    ``(first instance, n_instances, words)``), and each other field's rows."""
+    names = ("candidates",) + fields
+    pieces: dict[str, list[np.ndarray]] = {field: [] for field in names}
+    first = 0
+    widths = {"parameters": n_parameters, "predictions": n_sensors}
+    for k, part in enumerate(listed):
+        n, form = part["n_instances"], part.get("candidates")
+        if form not in FORMS:
+            raise ValueError(f"checkpoint: {folder / STATE} gives part {k} candidates of form {form!r}, "
+                             f"expected one of {sorted(FORMS)}; delete the folder to start over")
+        loaded = {}
+        for field in names:
+            rows = {"n_violated": n, "candidates": -(-n // 64) if form == "bitmap" else part["n_candidates"]}
+            loaded[field] = load(folder / name(k, field), part["sha256"][field], field,
+                                 rows.get(field, part["n_candidates"]), widths.get(field),
+                                 FORMS[form] if field == "candidates" else None)
+        path = folder / name(k, "candidates")
+        if form == "bitmap":
+            words = loaded["candidates"]
+            check_bitmap(path, words, n, part["n_candidates"])
+            loaded["candidates"] = (first, n, words)
+            mask = bitmap_mask(words, n) if "n_violated" in loaded else None  # only to check the counts
+        else:
+            check_candidates(path, loaded["candidates"], first, n)
+            mask = loaded["candidates"] - first  # indexes the part's instances like the bitmap's mask
+        if "n_violated" in loaded:
+            check_violations(folder / name(k, "n_violated"), loaded["n_violated"], n_sensors, mask)
+        for field in names:
+            pieces[field].append(loaded[field])
+        first += n
+    empty = {"n_violated": np.empty(0, np.int32), "parameters": np.empty((0, n_parameters or 0)),
+             "predictions": np.empty((0, n_sensors))}
+    segments = [c if isinstance(c, tuple) else c.astype(np.uint64) for c in pieces.pop("candidates")]
+    return segments, {field: np.concatenate(p) if p else empty[field] for field, p in pieces.items()}

@@ -14,6 +14,8 @@ import os
 import stat
 from pathlib import Path
 
+import numpy as np
+
 from . import atomic
 
 STATE = "state.json"
@@ -127,6 +129,21 @@ def _check_ints(value, depth: int) -> None:
 def count(v) -> bool:
     """A non-negative int64 (not a bool, not a float)."""
     return isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= INT_MAX
+
+
+def add_tally(base: dict | None, counts) -> dict | None:
+    """A state's ``tally``: the counts saved before a session (``base``, None
+    for none) plus those of its accumulator (``counts``: ``Falsifier.tally()``,
+    None without diagnostics)."""
+    if counts is None:
+        return None
+    base = base or {"per_sensor_falsified": 0, "falsified_only_by": 0, "n_invalid": 0}
+    return {
+        "per_sensor_falsified": (np.asarray(base["per_sensor_falsified"], np.int64)
+                                 + counts[0].astype(np.int64)).tolist(),
+        "falsified_only_by": (np.asarray(base["falsified_only_by"], np.int64) + counts[1].astype(np.int64)).tolist(),
+        "n_invalid": int(base["n_invalid"]) + int(counts[2]),
+    }
 
 
 def check_shape(state: dict, fields: tuple[str, ...]) -> None:
