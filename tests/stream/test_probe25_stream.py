@@ -138,12 +138,17 @@ def test_finishing_keeps_a_foreign_file_at_the_next_parts_name(tmp_path):
     assert mine.read_bytes() == b"the user's own data"
 
 
-def test_a_first_save_left_without_its_state_is_still_redone(tmp_path):
-    # a crash between the first save's parts and its state: the run starts over, as before
+def test_a_first_save_left_without_any_state_is_refused_not_overwritten(tmp_path):
+    # A crash during the first save leaves the state claiming its parts (tests/stream/test_first_save.py),
+    # so first parts with no state beside them are no run's that a run may overwrite: the .lock is no sign
+    # (was: redone, and so a user's file at such a name overwritten).
     predictions, y, thresholds = _case()
     folder = tmp_path / "run"
     _interrupted(folder, predictions, y, thresholds, after=1)
     (folder / "state.json").unlink()
-    assert (folder / "part-000000.candidates.npy").exists() and (folder / ".lock").exists()
-    result = edmf_rs.falsify(predictions, y, thresholds, checkpoint=folder, progress=False)
-    np.testing.assert_array_equal(result.candidate_indices, _candidates(predictions, y, thresholds))
+    left = folder / "part-000000.candidates.npy"
+    kept = left.read_bytes()
+    assert (folder / ".lock").exists()
+    with pytest.raises(ValueError, match=r"holds part-000000\.candidates\.npy, which is no part of the run"):
+        edmf_rs.falsify(predictions, y, thresholds, checkpoint=folder, progress=False)
+    assert left.read_bytes() == kept and not (folder / "state.json").exists()

@@ -9,9 +9,18 @@ replaced last, each atomically, so after a crash, SIGKILL, Ctrl-C or full
 disk the folder always describes a consistent prefix of the run, and running
 the same call again continues from its end, after re-reading the instances
 done and checking every one of them against their checksums (a guard against
-accidental change of the input, see ``rust/src/digest.rs``). A file named
-like a part that no run wrote there (the user's, or another run's) is never
-overwritten or removed: the run stops first, naming it.
+accidental change of the input, see ``rust/src/digest.rs``).
+
+Every state names the part files of the next save (``pending``): the only
+ones a crash during that save can leave that it does not list. Before the
+first save writes any part, a state with nothing done (``n_done`` 0, no
+parts) is written to name them, so a folder without a state holds nothing a
+crash left (its ``.lock`` says nothing about its files). A run overwrites or
+removes no part file but those the state it found names as pending and
+those it writes itself: any other file named like a part (the user's, or
+another run's) is never touched, the run stops first, naming it. A state
+with nothing done is no run to resume: any call starts over in its folder,
+as in an empty one (deleting the folder starts over too).
 """
 
 from __future__ import annotations
@@ -30,7 +39,7 @@ from . import chunks, parts
 from . import state as state_file
 from .atomic import deferred_sigint
 from .chunks import digestible
-from .folder_lock import LOCK, FolderLock, folder_path
+from .folder_lock import FolderLock, folder_path
 
 STATE = state_file.STATE
 FORMAT = state_file.FORMAT
@@ -67,6 +76,13 @@ class CheckpointError(OSError):
     """
 
 
+def _nothing_done(state: dict) -> bool:
+    """A state written before a run's first save, with nothing done (see
+    `Checkpoint._claim_first`): no run to resume, but its pending files are
+    a run's."""
+    return state.get("n_done") == 0 and state.get("parts") == [] and state.get("complete") is False
+
+
 class Checkpoint:
     """A run's folder: reads the saved state, checks it belongs to this call,
     and appends the progress of the current accumulator.
@@ -84,13 +100,11 @@ class Checkpoint:
             raise ValueError(f"checkpoint: expected a folder, {self.folder} is a file")
         self.every, self.fields, self.input_name = float(every), fields, input_name
         self.fingerprint, self.rereadable = fp, rereadable
-        # Without it no run has been here, so no crash can have left a first save's parts.
-        self._visited = os.path.lexists(self.folder / LOCK)
         self._lock = FolderLock(self.folder)
         try:
             self._read_progress()
             if not self.complete:  # before any work: the first save's names
-                self._refuse_foreign(parts.name(len(self.parts), name) for name in ("candidates",) + fields)
+                self._refuse_foreign(self._names(len(self.parts)))
             unwritable = self._lock.unwritable
             if unwritable is not None and not self.complete:
                 # Refused now, not at the first save after all the work.
@@ -108,13 +122,11 @@ class Checkpoint:
         state = self._read_state()
         self._had_state = state is not None
         self._saved_id = state_file.identity(self.folder / STATE)
-        state = state or {}
-        self._pending: list[str] = state.get("pending", [])
-        # Part files this run may overwrite or remove: the ones a crash during
-        # a save can leave (the state's next names; with no state, the first
-        # save's where a run has locked the folder before), and its own.
-        self._claimable = set(self._pending) if self._had_state else {
-            parts.name(0, name) for name in ("candidates",) + self.fields} if self._visited else set()
+        self._pending: list[str] = state["pending"] if state is not None else []
+        # Part files this run may overwrite or remove: those a crash during the
+        # state's next save can leave (none without a state), and its own.
+        self._claimable = set(self._pending)
+        state = {} if state is None or _nothing_done(state) else state  # nothing done: start over
         self.n_done: int = state.get("n_done", 0)
         self.parts: list[dict] = state.get("parts", [])
         self.tally: dict | None = state.get("tally")
@@ -148,7 +160,7 @@ class Checkpoint:
         state = state_file.read(path)
         if state is None:
             return None
-        if isinstance(state.get("fingerprint"), dict):  # other inputs: say which before anything else
+        if isinstance(state.get("fingerprint"), dict) and not _nothing_done(state):  # other inputs: say which first
             self._check(state["fingerprint"])
             for key, value in self.fingerprint.items():
                 if isinstance(value, dict) and "unhashable" in value:
@@ -313,8 +325,10 @@ class Checkpoint:
                 files[name] = np.concatenate(rows)
         tally = state_file.add_tally(self._base_tally, acc.tally())
         self._refuse_foreign((parts.name(len(self.parts), name) for name in files), CheckpointError)
-        target, written, sums = None, [], {}
+        had_state, target, written, sums = self._had_state, self.folder / STATE, [], {}
         try:
+            if files and not self.parts and set(self._pending) != set(self._names(0)):
+                self._claim_first()  # no state names them yet (none, or one of a call with other fields)
             for name, arr in files.items():
                 target = self.folder / parts.name(len(self.parts), name)
                 self._claimable.add(target.name)
@@ -323,46 +337,81 @@ class Checkpoint:
             if files:
                 new_parts.append({"n_instances": n_done - self.n_done, "n_candidates": n_candidates,
                                   "candidates": form, "sha256": sums})
-            state = {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
-                     "rereadable": self.rereadable and self.was_rereadable,
-                     "rows": {"checksum": _core.RowDigest.algorithm, "block_rows": _core.RowDigest.block_rows,
-                              "blocks": self.rows.blocks(),
-                              "partial": self.rows.partial()},
-                     "tally": tally, "extra": self.extra, "parts": new_parts,
-                     # The next save's part files: all a crash can leave that the parts do not list.
-                     "pending": [parts.name(len(new_parts), name) for name in ("candidates",) + self.fields]}
+            state = self._state(n_done, final, tally, new_parts)
             target = self.folder / STATE
             save_state(target, state)
         except OSError as exc:
-            for path in written:  # not listed in the state: only holding space the retry needs
-                with contextlib.suppress(OSError):
-                    path.unlink()
-            raise CheckpointError(
-                exc.errno,
-                f"checkpoint: could not write {target.name} in {self.folder} ({exc.strerror or exc}). "
-                f"The folder still holds the state after instance {self.n_done:,}: run the same call "
-                "again to resume from there once the problem is fixed",
-            ) from exc
+            self._undo(written, had_state)
+            before = (f"The folder still holds the state after instance {self.n_done:,}: run the same call again "
+                      "to resume from there" if had_state else "Nothing was saved: run the same call again")
+            raise CheckpointError(exc.errno, f"checkpoint: could not write {target.name} in {self.folder} "
+                                  f"({exc.strerror or exc}). {before} once the problem is fixed") from exc
         for rows in arrays.values():
             rows.clear()
         self.n_done, self.parts, self.tally, self.complete = n_done, new_parts, tally, final
-        self.was_rereadable, self._had_state = state["rereadable"], True
-        self._saved_id = state_file.identity(self.folder / STATE)
-        self._pending = state["pending"]
+        self.was_rereadable = state["rereadable"]
+        self._saved(state)
         self._last = time.monotonic()
         if final:
             self._tidy()
 
+    def _names(self, k: int) -> list[str]:
+        """The part files of save ``k``."""
+        return [parts.name(k, name) for name in ("candidates",) + self.fields]
+
+    def _state(self, n_done: int, final: bool, tally: dict | None, new_parts: list[dict]) -> dict:
+        """The state after ``n_done`` instances: those recorded, or none (the
+        first save's claim, made once its instances are recorded)."""
+        rows = {"blocks": self.rows.blocks(), "partial": self.rows.partial()} if n_done else {
+            "blocks": [], "partial": None}
+        return {"format": FORMAT, "fingerprint": self.fingerprint, "n_done": n_done, "complete": final,
+                "rereadable": self.rereadable and self.was_rereadable,
+                "rows": {"checksum": _core.RowDigest.algorithm, "block_rows": _core.RowDigest.block_rows, **rows},
+                "tally": tally, "extra": self.extra, "parts": new_parts,
+                # The next save's part files: all a crash can leave that the parts do not list.
+                "pending": self._names(len(new_parts))}
+
+    def _saved(self, state: dict) -> None:
+        """``state`` is the one in the folder now: the next save checks it is still there."""
+        self._had_state, self._saved_id = True, state_file.identity(self.folder / STATE)
+        self._pending = state["pending"]
+
+    def _claim_first(self) -> None:
+        """Before the first save writes any part: a state with nothing done
+        naming them as pending, so that a crash while they are written leaves
+        only files a state claims (with no state, none is claimed, and a
+        user's file named like a part is never overwritten). The files an
+        earlier such state named that this run does not write (a call with
+        other fields) are removed first: nothing would claim them after."""
+        pending = self._names(0)
+        for name in set(self._pending) - set(pending):
+            (self.folder / name).unlink(missing_ok=True)
+            self._claimable.discard(name)
+        state = self._state(0, False, None, [])  # its extra and rereadable are not read back
+        save_state(self.folder / STATE, state)
+        self._saved(state)
+
+    def _undo(self, written: list, had_state: bool) -> None:
+        """After a failed save: removes the parts it wrote (no state lists them:
+        they only hold space the retry needs) and then, if there was no state
+        before, the state with nothing done it wrote, so the folder is as it
+        was. Kept if a part could not be removed: it claims that part."""
+        for path in written:
+            with contextlib.suppress(OSError):
+                path.unlink()
+        if self._had_state and not had_state and not any(os.path.lexists(path) for path in written):
+            with contextlib.suppress(OSError):
+                (self.folder / STATE).unlink()
+
     def _tidy(self) -> None:
-        """Removes what interrupted sessions may have left, and only what the
-        state lists: the pending part files of a save that never completed,
-        and the temporary files of the state's and the parts' atomic writes
+        """Removes what interrupted sessions may have left, and only files a
+        run wrote: the part files the state found named as pending that are
+        not parts of the run (of a save that never completed), and the
+        temporary files of the state's and the parts' atomic writes
         (``.<name>.<pid>.<32 hex>.tmp``, see :mod:`.atomic`)."""
-        listed = {STATE} | {parts.name(k, name) for k in range(len(self.parts) + 1)
-                            for name in ("candidates",) + self.fields}
-        for name in self._pending:
-            if name in self._claimable:  # else not left by a run: kept
-                (self.folder / name).unlink(missing_ok=True)
+        listed = {STATE} | {name for k in range(len(self.parts) + 1) for name in self._names(k)}
+        for name in self._claimable - {name for k in range(len(self.parts)) for name in self._names(k)}:
+            (self.folder / name).unlink(missing_ok=True)  # others are not a run's: kept
         temporary = re.compile(r"\.(?P<name>.+)\.[0-9]+\.[0-9a-f]{32}\.tmp")
         for path in self.folder.iterdir():
             m = temporary.fullmatch(path.name)
