@@ -138,8 +138,9 @@ CHILD = textwrap.dedent('''
     import numpy as np
     import edmf_rs
     from edmf_rs import Thresholds
-    from edmf_rs.stream import atomic
+    from edmf_rs.stream import atomic, checkpoint
 
+    checkpoint.MAX_SAVE_SHARE = 1.0  # a save after every chunk, as in conftest.py
     data, folder, kill_at, phase = sys.argv[1:5]
     inputs = np.load(data)
     renames = [0]

@@ -65,7 +65,11 @@ def falsify(predictions, measurements, thresholds: Thresholds, *, diagnostics: b
         folder serves one run at a time: a second run on it meanwhile is
         refused.
     checkpoint_every : float, default 60.0
-        Seconds between saves of the checkpoint.
+        Seconds between saves of the checkpoint, at least: a save also waits
+        until the run has worked 19 times as long as the last save took (a
+        save rewrites a state listing every save before it), so saves take
+        at most about 5 % of the run. With 0, the run saves as soon as that
+        much work is done (after every chunk, where chunks take that long).
     trust_iterable : bool, default False
         When the folder holds a finished run and ``predictions`` is a
         one-pass iterator (e.g. a generator), return the saved result without

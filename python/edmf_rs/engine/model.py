@@ -180,7 +180,11 @@ def falsify_model(model: Callable, parameters, measurements, thresholds: Thresho
         :func:`edmf_rs.stream.identity.model_fingerprint`) are refused, and
         so is a second run on the folder while this one holds it.
     checkpoint_every : float, default 60.0
-        Seconds between saves of the checkpoint.
+        Seconds between saves of the checkpoint, at least: a save also waits
+        until the run has worked 19 times as long as the last save took (a
+        save rewrites a state listing every save before it), so saves take
+        at most about 5 % of the run. With 0, the run saves as soon as that
+        much work is done (after every chunk, where chunks take that long).
     trust_iterable : bool, default False
         When the folder holds a finished run and ``parameters`` is a one-pass
         iterator, return the saved result without drawing it again to check

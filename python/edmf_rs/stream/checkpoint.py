@@ -45,6 +45,9 @@ STATE = state_file.STATE
 FORMAT = state_file.FORMAT
 #: Fingerprint entries that are content hashes (not worth printing).
 HASHED = ("measurements", "thresholds", "model")
+#: Largest share of a run's time its periodic saves take (even with ``checkpoint_every=0``: a state lists every
+#: part, so N saves after N tiny chunks would cost O(N^2)), by waiting (1 / share - 1) times the last save's time.
+MAX_SAVE_SHARE = 0.05
 #: Writers (module-level so tests can make them fail like a full disk).
 save_npy = parts.save
 save_state = state_file.write
@@ -77,9 +80,8 @@ class CheckpointError(OSError):
 
 
 def _nothing_done(state: dict) -> bool:
-    """A state written before a run's first save, with nothing done (see
-    `Checkpoint._claim_first`): no run to resume, but its pending files are
-    a run's."""
+    """A state written before a run's first save (`Checkpoint._claim_first`):
+    no run to resume, but its pending files are a run's."""
     return state.get("n_done") == 0 and state.get("parts") == [] and state.get("complete") is False
 
 
@@ -139,7 +141,7 @@ class Checkpoint:
         self.rows = _core.RowDigest()  # fed every instance from 0: those done again on resumption
         # Instances and tally before this session's accumulator started.
         self.base, self._base_tally = self.n_done, self.tally
-        self._last = time.monotonic()
+        self._last, self._cost = time.monotonic(), 0.0
         self.broken = False
 
     def _refuse_foreign(self, names, error=ValueError) -> None:
@@ -285,7 +287,8 @@ class Checkpoint:
     # -- writing -----------------------------------------------------------
 
     def due(self) -> bool:
-        return time.monotonic() - self._last >= self.every
+        wait = self._cost * (1.0 / MAX_SAVE_SHARE - 1.0)
+        return time.monotonic() - self._last >= max(self.every, wait)
 
     def flush(self, acc, arrays: dict[str, list[np.ndarray]] | None = None, final: bool = False) -> None:
         """Saves what ``acc`` (a ``_core.Falsifier`` started at instance
@@ -296,9 +299,11 @@ class Checkpoint:
         n_done = self.base + int(acc.n_instances)
         if n_done == self.n_done and not final:
             return
+        start = time.monotonic()
         with deferred_sigint():
             try:
                 self._write(acc, n_done, arrays or {}, final)
+                self._cost = self._last - start
             except BaseException:
                 self.broken = True
                 raise
