@@ -573,8 +573,8 @@ fn calls_split_into_passes_match_portable() {
 }
 
 /// The AVX2 medium kernel (rows of 9-64 sensors) counts accepting sensors
-/// in 32-bit lanes (f32) or 64-bit lanes (f64), moved to the tally between
-/// passes: flushed every 1,000 rows here, over rows of every vector count
+/// in 32-bit lanes (f64: two vectors to a counter, odd and even vector
+/// counts both checked here), moved to the tally between passes: flushed every 1,000 rows here, over rows of every vector count
 /// (f32 9-64 sensors: 2-8 vectors; f64: 3-16), most rejected by one sensor,
 /// some NaN, counts and tally equal the portable kernel's.
 #[cfg(target_arch = "x86_64")]

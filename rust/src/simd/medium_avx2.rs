@@ -2,12 +2,12 @@
 //! memory (f32 two to eight vectors of eight, f64 three to sixteen of four),
 //! the AVX2 counterpart of `medium`: every row gets the same work, with no
 //! branch on its verdict. Each vector's comparison gives its accepting
-//! lanes as all-ones integers, which are subtracted from one counter lane
-//! per sensor (rejections = rows - acceptances: no complement, no bit
-//! expansion); the same lanes' sign bits make the row's accepting sensors
-//! one 64-bit word, whose complement's popcount is the violation count and
-//! whose lowest bit is the first rejecting sensor ("falsified only by" is
-//! one add in memory there).
+//! lanes as all-ones integers, which are subtracted from one 32-bit counter
+//! lane per sensor (rejections = rows - acceptances: no complement, no bit
+//! expansion; f64 vectors two to a counter, see `pair_lanes`); the same
+//! lanes' sign bits make the row's accepting sensors one 64-bit word, whose
+//! complement's popcount is the violation count and whose lowest bit is the
+//! first rejecting sensor ("falsified only by" is one add in memory there).
 //!
 //! Why: `long_avx2`, which took these rows before, counts per bit of the
 //! row's verdict string in byte lanes and reads a row's verdict first after
@@ -24,8 +24,8 @@ use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
-/// Rows per pass between two flushes of the counters (32-bit lanes for
-/// f32: far below 2^32, so they never wrap).
+/// Rows per pass between two flushes of the counters (32-bit lanes: far
+/// below 2^32, so they never wrap).
 const FLUSH_ROWS: usize = 1 << 20;
 
 /// Vectors of `T::W512 / 2` lanes per row of `k` sensors if this kernel
@@ -110,6 +110,8 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
         let end = (first + pass_rows).min(m.rows());
         let mut accepting = [_mm256_setzero_si256(); V];
         let mut invalid = 0u64;
+        // f64: the even vector's accepting lanes, until the odd one's.
+        let mut even = _mm256_setzero_si256();
         for (i, n_out) in (first..end).zip(&mut out[first..end]) {
             let row = m.row_slice(i).expect("contiguous rows (checked by the caller)");
             let p = row.as_ptr();
@@ -123,7 +125,18 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
                 let j = start(v);
                 let x = T::load256(p.add(j));
                 let yes = T::inside_lanes256(x, T::load256(low.add(j)), T::load256(high.add(j)));
-                accepting[v] = count::<T>(accepting[v], yes);
+                if std::mem::size_of::<T>() == 8 {
+                    // f64: vectors 2q and 2q + 1 share counter q (see `pair_lanes`).
+                    if v % 2 == 0 {
+                        even = yes;
+                    }
+                    if v % 2 == 1 || v + 1 == V {
+                        let odd = if v % 2 == 1 { yes } else { _mm256_setzero_si256() };
+                        accepting[v / 2] = _mm256_sub_epi32(accepting[v / 2], pair_lanes(even, odd));
+                    }
+                } else {
+                    accepting[v] = count::<T>(accepting[v], yes);
+                }
                 inside |= u64::from(sign_bits::<T>(yes)) << j;
                 sum[v % 2] = T::add256(sum[v % 2], x);
             });
@@ -146,15 +159,46 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     *sums = read;
 }
 
-/// `counter` plus one in each lane where `inside` is all ones (subtracting -1).
+/// `counter` plus one in each lane where `inside` is all ones (subtracting
+/// -1): f32 counters, one per vector.
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn count<T: Prediction>(counter: __m256i, inside: __m256i) -> __m256i {
-    if std::mem::size_of::<T>() == 8 {
-        _mm256_sub_epi64(counter, inside)
-    } else {
-        _mm256_sub_epi32(counter, inside)
+    _mm256_sub_epi32(counter, inside)
+}
+
+/// The accepting lanes of two f64 vectors as one vector of 32-bit lanes:
+/// lane 2e all ones iff lane e of `even` is, lane 2e + 1 iff lane e of
+/// `odd` is (each 64-bit lane is all ones or all zeros, so either half
+/// stands for it). Subtracted from one counter, two vectors cost one
+/// counter register. With one counter per vector, rows of more than eight
+/// f64 vectors (33-64 sensors) left too few of AVX2's 16 registers, and
+/// the compiler kept vectors on the stack, loading and storing them on
+/// every row (46 stack moves a row for rows of 50, 28 now); alone on a
+/// core, f64 rows of 33 and 50 with diagnostics then ran 1.06-1.07 times
+/// as fast, f32 rows (unchanged code) 0.99-1.01 (AMD EPYC Zen 4;
+/// `benches/results-long-rows.txt`, "session 29: AVX2 f64 counters").
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn pair_lanes(even: __m256i, odd: __m256i) -> __m256i {
+    _mm256_blend_epi32::<0b1010_1010>(even, odd)
+}
+
+/// Each sensor's count of f64 vector `v`: counter `v / 2`, lanes
+/// `2e + v % 2` (see [`pair_lanes`]).
+///
+/// # Safety
+/// AVX2 is available.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn pair_counts<const V: usize>(accepting: &[__m256i; V], v: usize) -> [u64; 8] {
+    let mut narrow = [0u32; 8];
+    _mm256_storeu_si256(narrow.as_mut_ptr() as *mut __m256i, accepting[v / 2]);
+    let mut lanes = [0u64; 8];
+    for (e, lane) in lanes.iter_mut().take(4).enumerate() {
+        *lane = u64::from(narrow[2 * e + v % 2]);
     }
+    lanes
 }
 
 /// One bit per lane of `inside` (its sign bit).
@@ -180,14 +224,13 @@ unsafe fn sign_bits<T: Prediction>(inside: __m256i) -> u32 {
 unsafe fn add_rejections<T: Prediction, const V: usize>(accepting: &[__m256i; V], k: usize, rows: u64, per_sensor: &mut [u64]) {
     let w = T::W512 / 2;
     for (v, acc) in accepting.iter().enumerate() {
-        let mut lanes = [0u64; 8];
-        if std::mem::size_of::<T>() == 8 {
-            _mm256_storeu_si256(lanes.as_mut_ptr() as *mut __m256i, *acc);
+        let lanes = if std::mem::size_of::<T>() == 8 {
+            pair_counts(accepting, v)
         } else {
             let mut narrow = [0u32; 8];
             _mm256_storeu_si256(narrow.as_mut_ptr() as *mut __m256i, *acc);
-            lanes = narrow.map(u64::from);
-        }
+            narrow.map(u64::from)
+        };
         let (first, skip) = if v + 1 < V { (v * w, 0) } else { ((V - 1) * w, V * w - k) };
         for (total, &c) in per_sensor[first..].iter_mut().zip(&lanes[skip..w]) {
             *total += rows - c;
