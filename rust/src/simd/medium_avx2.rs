@@ -175,7 +175,7 @@ unsafe fn count<T: Prediction>(counter: __m256i, inside: __m256i) -> __m256i {
 /// f64 vectors (33-64 sensors) left too few of AVX2's 16 registers, and
 /// the compiler kept vectors on the stack, loading and storing them on
 /// every row (46 stack moves a row for rows of 50, 28 now); alone on a
-/// core, f64 rows of 33 and 50 with diagnostics then ran 1.06-1.07 times
+/// core, f64 rows of 33 and 50 with diagnostics then ran 1.06-1.08 times
 /// as fast, f32 rows (unchanged code) 0.99-1.01 (AMD EPYC Zen 4;
 /// `benches/results-long-rows.txt`, "session 29: AVX2 f64 counters").
 #[inline]
