@@ -1,5 +1,6 @@
 import os
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 # Property tests run many examples on CI-sized machines; no per-example deadline
@@ -9,3 +10,19 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
 settings.load_profile("default")
+
+
+@pytest.fixture(autouse=True)
+def _stream_saves_after_every_chunk(request, monkeypatch):
+    """The tests in tests/stream count on ``checkpoint_every=0`` saving after
+    every chunk (they interrupt or kill a run at a given save, or change the
+    folder between two), which a run does only while its chunks take longer
+    than ~19 saves: there chunks take microseconds. So for them the share of a
+    run's time saves may take is lifted to all of it (the child scripts of the
+    SIGKILL tests do the same); tests/stream/test_save_share.py checks the
+    default. Here, not in a tests/stream/conftest.py: two conftest modules
+    would shadow each other for the tests that import from ``conftest``."""
+    if request.node.path.parent.name == "stream" and request.node.path.parent.parent.name == "tests":
+        from edmf_rs.stream import checkpoint
+
+        monkeypatch.setattr(checkpoint, "MAX_SAVE_SHARE", 1.0)

@@ -140,7 +140,7 @@ CHILD = textwrap.dedent('''
     from edmf_rs import Thresholds
     from edmf_rs.stream import atomic, checkpoint
 
-    checkpoint.MAX_SAVE_SHARE = 1.0  # a save after every chunk, as in conftest.py
+    checkpoint.MAX_SAVE_SHARE = 1.0  # a save after every chunk, as in tests/conftest.py
     data, folder, kill_at, phase = sys.argv[1:5]
     inputs = np.load(data)
     renames = [0]

@@ -74,7 +74,7 @@ CHILD = textwrap.dedent('''
     from edmf_rs import Thresholds
     from edmf_rs.stream import atomic, checkpoint
 
-    checkpoint.MAX_SAVE_SHARE = 1.0  # a save after every chunk: the kill points count on it (conftest.py)
+    checkpoint.MAX_SAVE_SHARE = 1.0  # a save after every chunk: the kill points count on it (tests/conftest.py)
     mode, data, folder, kill_at, phase, out = sys.argv[1:7]
     kill_at = int(kill_at)
     inputs = np.load(data)

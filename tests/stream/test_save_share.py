@@ -18,7 +18,7 @@ import pytest
 from edmf_rs import Thresholds
 from edmf_rs.stream import checkpoint
 
-#: The default (conftest.py lifts it for the other tests, which count saves).
+#: The default (tests/conftest.py lifts it for the other tests, which count saves).
 DEFAULT_SHARE = checkpoint.MAX_SAVE_SHARE
 N_M, ROWS = 3, 10
 SAVE = 0.1  # seconds a state write takes on the fake clock

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from . import intervals
+from . import intervals, offsets
 from ._validate import check_seed, finite_vector, fits_in_memory, positive_int
 
 
@@ -269,19 +269,8 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
                 stacklevel=2,
             )
 
-    # A source of scale 0, of any family, is the constant loc (X = loc + scale Z; scipy reports its mean
-    # and quantiles as NaN): it shifts U_c by +loc (model) or -loc (measurement), Eq. 4, and the method
-    # is chosen as if it were absent, so a fixed offset never forces Monte Carlo on its own.
-    offset = np.zeros(n_m)  # of the sources of scale 0 at every sensor, left out below
-    spread_sources = []
-    for src in sources:
-        sign, _, dist, _, _ = src
-        if dist is not None:
-            loc, scale = _loc_scale(dist)
-            if np.all(scale == 0):
-                offset += sign * loc
-                continue
-        spread_sources.append(src)
+    # Sources of scale 0 are fixed offsets, and choose no method (see `offsets`).
+    offset, spread_sources = offsets.whole_offsets(sources, n_m)
 
     if all(s[2] is not None and s[2].dist.name == "norm" for s in spread_sources):
         # Every source a (vectorised) normal: sum the moments as arrays, no per-sensor objects.
@@ -296,17 +285,7 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         return CombinedUncertainty(n_m, distribution=stats.norm(loc=mean, scale=np.sqrt(var)),
                                    seed=_seed_record(seed), gaussian=np.ones(n_m, dtype=bool),
                                    symmetric=np.ones(n_m, dtype=bool))
-    # Per sensor, the sources with a spread there; an entry of scale 0 (of a per-sensor list, or of a
-    # source vectorised over the sensors) joins the shift instead.
-    shift = offset.copy()
-    active = [[] for _ in range(n_m)]
-    for sign, group, dist, _, _ in spread_sources:
-        for j, d in enumerate(group or intervals.split(dist, n_m)):
-            loc, scale = _loc_scale(d)
-            if scale == 0:
-                shift[j] += sign * loc
-            else:
-                active[j].append((sign, d))
+    shift, active = offsets.per_sensor(spread_sources, offset, n_m)
     normal = [all(d.dist.name == "norm" for _, d in a) for a in active]
     if all(normal):
         mean, sd = _normal_sum(active, shift, range(n_m))
@@ -319,7 +298,7 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
             mean, sd = _normal_sum(active, shift, [j])
             marginals.append((1.0, stats.norm(mean[0], sd[0])))
         elif len(active[j]) == 1:
-            marginals.append(_fold(active[j], shift[j])[0])
+            marginals.append(offsets.fold(active[j], shift[j])[0])
         else:
             marginals.append(None)
     symmetric = np.array([all(intervals.is_symmetric(d) for _, d in a) for a in active])
@@ -337,7 +316,7 @@ def combine(model=(), measurement=(), *, n_samples: int = 200_000, seed=0,
         else:
             samples -= draws
     samples += offset  # entries of scale 0 inside the sources drawn were drawn as their loc
-    per_sensor_sources = tuple(_fold(a, shift[j]) for j, a in enumerate(active))
+    per_sensor_sources = tuple(offsets.fold(a, shift[j]) for j, a in enumerate(active))
     return CombinedUncertainty(n_m, samples=samples, marginals=tuple(marginals), symmetric=symmetric,
                                gaussian=np.array(normal), seed=_seed_record(seed), sources=per_sensor_sources)
 
@@ -347,7 +326,7 @@ def _check_sources(sources, n_m: int, n_samples, size_name: str):
     every source has scale 0, and sizes past this machine's memory
     (n_sensors = 10**12 once swapped for hours). Returns n_samples, checked
     when Monte Carlo samples are drawn (some source not normal and not of scale 0, a fixed offset)."""
-    sampled = any(d.dist.name != "norm" and np.any(_loc_scale(d)[1] != 0)
+    sampled = any(d.dist.name != "norm" and np.any(offsets.loc_scale(d)[1] != 0)
                   for _, per, dist, _, _ in sources for d in (per or [dist]))
     if sampled:
         n_samples = positive_int(n_samples, "n_samples")
@@ -389,24 +368,6 @@ def _normal_sum(active, shift, sensors) -> tuple[np.ndarray, np.ndarray]:
         i = sensors[int(np.flatnonzero(~(var > 0))[0])]
         raise ValueError(f"model, measurement: the combined standard deviation is zero at sensor {i}")
     return mean, np.sqrt(var)
-
-
-def _loc_scale(dist) -> tuple[np.ndarray, np.ndarray]:
-    """(loc, scale) of a frozen distribution as scipy parses them (positional or keyword),
-    not broadcast over the sensors: with scale 0 the distribution is the constant loc."""
-    _, loc, scale = dist.dist._parse_args(*dist.args, **dist.kwds)
-    return np.asarray(loc, dtype=float), np.asarray(scale, dtype=float)
-
-
-def _fold(active, shift: float) -> tuple:
-    """One sensor's ``(sign, distribution)`` sources with the constant ``shift`` folded into
-    the first one's location (sign * (X + sign * c) = sign * X + c), so that its marginal or
-    convolution is that of the sources with spread, moved by the fixed offsets."""
-    if shift == 0:
-        return tuple(active)
-    (sign, d), *rest = active
-    shapes, loc, scale = d.dist._parse_args(*d.args, **d.kwds)
-    return ((sign, d.dist(*shapes, loc=loc + sign * shift, scale=scale)), *rest)
 
 
 def _normal_parameters(dist, n: int | None = None):
