@@ -106,3 +106,13 @@ def test_the_row_batch_widths():
            f"the typical one, with the floor at {round(float(floor))} ms" in PAGE
     avx2 = [float(v) for v in re.findall(r"Avx2 f32 +(?:17|25) \w+ +([\d.]+)", section)]
     assert len(avx2) == 4 and f"float32 rows of 17 and 25 read {min(avx2):.1f}-{max(avx2):.1f} GB/s" in PAGE
+
+
+def test_the_flat_kernel_that_was_not_kept():
+    section = _section("session 29: a flat kernel for the row-batch widths, not kept")
+    builds = section.split("--- build ")[1:]
+    assert len(builds) == 5  # four builds and build 2 taken apart
+    flat = re.compile(r"^Avx512 (f32|f64) +\d+ \w+ \|.*\| flat ([\d.]+)/([\d.]+)$", re.M)
+    paired = [float(m[2]) for b in builds if "taken apart" not in b.split("\n")[0] for m in flat.finditer(b)]
+    assert paired and max(paired) < 1
+    assert f"ran {_span(paired)} times as fast as the row-batch kernel with diagnostics in four builds" in PAGE
