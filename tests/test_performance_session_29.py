@@ -9,6 +9,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 LONG_ROWS = (ROOT / "benches" / "results-long-rows.txt").read_text()
+SHORT_ROWS = (ROOT / "benches" / "results-short-rows.txt").read_text()
 PAGE = " ".join((ROOT / "docs" / "performance.md").read_text().split())
 README = " ".join((ROOT / "README.md").read_text().split())
 MEDIUM_DOC = " ".join((ROOT / "rust" / "src" / "simd" / "medium_avx2.rs").read_text().replace("///", "").split())
@@ -16,8 +17,8 @@ MEDIAN = re.compile(r"^  (\S.*?)\s+speed / floor ([\d.]+) \(", re.M)
 PAIR = re.compile(r"^(Avx2|Avx512) (f32|f64) +(\d+) (\w+) \|.*\| new ([\d.]+)/([\d.]+)$", re.M)
 
 
-def _section(title: str) -> str:
-    found = [s for s in LONG_ROWS.split("\n=== ") if s.startswith(title)]
+def _section(title: str, text: str = LONG_ROWS) -> str:
+    found = [s for s in text.split("\n=== ") if s.startswith(title)]
     assert len(found) == 1, title
     return found[0]
 
@@ -127,3 +128,23 @@ def test_the_readme_paragraph_matches_the_page():
     assert "read 18.6-48.9 GB/s with diagnostics in the worst case, against 46.0-79.9" in paragraph
     assert "float32 rows of 17 with diagnostics read 0.80 of the floor in the worst case and 0.66" in paragraph
     assert "float64 rows of 33 and 50 with diagnostics ran 1.06-1.08 times as fast alone" in paragraph
+
+
+def test_the_row_batches_prefetch_hint():
+    section = _section("session 29: the row batches' prefetch hint", SHORT_ROWS)
+    change = section.split("--- the change")[1].split("--- through memory")[0]
+    lines = [m.groups() for m in re.finditer(
+        r"^(Avx2|Avx512) (f32|f64) +(\d+) (\w+) \|.*\| const ([\d.]+)/([\d.]+)$", change, re.M)]
+    assert len(lines) == 2 * 9 * 2
+    avx512 = [(float(g[4]), float(g[5])) for g in lines if g[0] == "Avx512"]
+    avx2 = [float(v) for g in lines if g[0] == "Avx2" for v in g[4:]]
+    diag, screened = _span(d for d, _ in avx512), _span(s for _, s in avx512)
+    assert min(d for d, _ in avx512) > 1 and min(s for _, s in avx512) > 1
+    assert f"the row-batch widths ran {diag} times as fast with diagnostics and {screened} screened, the AVX2 " \
+           f"kernels, not touched, {_span(avx2)}" in PAGE
+    assert f"then ran them {diag} times as fast with diagnostics alone" in README
+    doc = " ".join((ROOT / "rust" / "src" / "simd" / "row_batches.rs").read_text().replace("//", "").split())
+    assert f"made these rows with diagnostics {diag} times as fast and screened {screened}" in doc
+    memory = section.split("--- through memory")[1]
+    floors = [float(x) for x in re.findall(r"floor [\d.]+ ms \(([\d.]+)-([\d.]+)\)", memory) for x in x]
+    assert f"a slow spell of the host (the floor at {min(floors)}-{max(floors)} ms)" in PAGE

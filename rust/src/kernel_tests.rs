@@ -617,3 +617,49 @@ fn medium_avx2_counts_survive_passes() {
         check(m32, &b, &want, &tw);
     }
 }
+
+/// The row-batch kernel is compiled for two constant prefetch hints and for
+/// one chosen per line (`row_batches::run_rows`): whichever is in use, its
+/// verdicts, counts and tally are the portable kernel's (a prefetch is a
+/// hint). Rows of the widths it takes, with NaN, in f32 and f64.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn row_batches_agree_under_every_prefetch() {
+    use crate::Prefetch;
+    if !Isa::Avx512.supported() {
+        return; // the level does not run here
+    }
+    let before = Prefetch::current();
+    for name in ["t1:8192", "nta:4096", "t0:0", "t2:64", "off"] {
+        Prefetch::from_name(name).expect("a valid prefetch").set();
+        for k in [9usize, 11, 17, 25, 31] {
+            let rows = 1_000;
+            let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
+            let mut state = 0x0DDB_1A5E_5BAD_5EEDu64 ^ k as u64;
+            let data: Vec<f64> = (0..rows * k)
+                .map(|_| {
+                    let u = crate::testing::uniform(&mut state);
+                    if u < 0.001 { f64::NAN } else { 2.1 * (u - 0.5) }
+                })
+                .collect();
+            let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
+            let (m, m32) = (Matrix::row_major(&data, rows, k).unwrap(), Matrix::row_major(&data32, rows, k).unwrap());
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            let (mut got, mut t) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
+            diagnose_with(Isa::Avx512, m, &b, &mut got, &mut t);
+            assert_eq!((&got, &t), (&want, &tw), "{name}: f64 rows of {k}");
+            assert!(tw.invalid > 0 && want.iter().any(|&n| n == 0) && want.iter().any(|&n| n > 0), "{k}: mixed rows");
+            let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
+            let (mut got, mut t) = (vec![0u32; rows], Tally::zeros(k));
+            diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+            diagnose_with(Isa::Avx512, m32, &b, &mut got, &mut t);
+            assert_eq!((&got, &t), (&want, &tw), "{name}: f32 rows of {k}");
+            let plan = ScreenPlan::new(&b, &vec![0; k]);
+            screen_with(Isa::Portable, m32, &b, &plan, &mut want);
+            screen_with(Isa::Avx512, m32, &b, &plan, &mut got);
+            assert_eq!(got, want, "{name}: f32 rows of {k}, screened");
+        }
+    }
+    before.set();
+}

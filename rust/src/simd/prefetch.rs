@@ -123,6 +123,8 @@ impl Prefetch {
 static HINT: AtomicU8 = AtomicU8::new(UNSET);
 static BYTES: AtomicUsize = AtomicUsize::new(0);
 const UNSET: u8 = u8::MAX;
+/// `line_as`'s code for a hint chosen on every line.
+pub const RUN_TIME: u8 = u8::MAX;
 const HINTS: [Hint; 5] = [Hint::T0, Hint::T1, Hint::T2, Hint::Nta, Hint::Off];
 
 impl Prefetch {
@@ -160,6 +162,31 @@ impl Prefetch {
             _ => Hint::Off,
         };
         Prefetch { hint, bytes: BYTES.load(Ordering::Relaxed) }
+    }
+
+    /// [`Prefetch::line`] with the hint a constant, `H` = [`Prefetch::code`]
+    /// of it (or [`RUN_TIME`]: `self`'s, chosen on every line). A loop that
+    /// prefetches on every row pays for choosing the hint at run time: a
+    /// jump through a table each time (see `row_batches`).
+    #[inline(always)]
+    pub fn line_as<const H: u8, T>(self, p: *const T) {
+        let q = (p as *const i8).wrapping_add(self.bytes);
+        // SAFETY: SSE is part of x86-64; prefetching any address is allowed.
+        unsafe {
+            match H {
+                0 => _mm_prefetch::<_MM_HINT_T0>(q),
+                1 => _mm_prefetch::<_MM_HINT_T1>(q),
+                2 => _mm_prefetch::<_MM_HINT_T2>(q),
+                3 => _mm_prefetch::<_MM_HINT_NTA>(q),
+                4 => {}
+                _ => self.line(p),
+            }
+        }
+    }
+
+    /// The hint as `line_as` takes it: its index in [`HINTS`].
+    pub fn code(self) -> u8 {
+        HINTS.iter().position(|&h| h == self.hint).unwrap_or(HINTS.len() - 1) as u8
     }
 
     /// Asks for the line `self.bytes` past `p`. A prefetch never faults, so
@@ -200,5 +227,9 @@ mod tests {
         for name in ["t0:0", "t1:8192", "t2:64", "nta:4096", "off"] {
             assert_eq!(Prefetch::from_name(name).unwrap().name(), name);
         }
+        // `line_as`'s codes: the hint's place in HINTS, none of them RUN_TIME.
+        let codes: Vec<u8> = ["t0:0", "t1:0", "t2:0", "nta:0", "off"].iter().map(|n| Prefetch::from_name(n).unwrap().code()).collect();
+        assert_eq!(codes, [0, 1, 2, 3, 4]);
+        assert!(!codes.contains(&RUN_TIME));
     }
 }

@@ -21,7 +21,7 @@
 //! `falsify`, screening f64 rows of 16 went from 0.66-0.69 to 1.02-1.05 of
 //! the read floor (section "session 13: side by side").
 
-use super::prefetch::Prefetch;
+use super::prefetch::{Prefetch, RUN_TIME};
 use super::bit_counts::BitPlanes;
 use super::checksum::RowsRead;
 use super::short::ShortRows;
@@ -47,7 +47,35 @@ impl<T: Prediction> ShortRows<T> {
         m: Matrix<'_, T>,
         counts: &mut [u32],
         sink: &mut BitSink,
+        ts: (&mut Tally, &mut S),
+    ) {
+        // The prefetch's hint a constant in the loop for the two that CPUs
+        // are given (`Prefetch::for_cpu`); others, named by `PREFETCH_ENV`
+        // to compare them, chosen on every line. Chosen on every row, the
+        // hint was a jump through a table per row: alone on a core, the
+        // constant made these rows with diagnostics 1.03-1.36 times as fast
+        // and screened 1.12-1.37 (AMD EPYC Zen 4; `benches/results-short-rows.txt`,
+        // "session 29: the row batches' prefetch hint").
+        let pf = Prefetch::now();
+        match pf.code() {
+            1 => self.rows_as::<G, DIAG, COUNTS, S, 1>(m, counts, sink, ts, pf),
+            3 => self.rows_as::<G, DIAG, COUNTS, S, 3>(m, counts, sink, ts, pf),
+            _ => self.rows_as::<G, DIAG, COUNTS, S, RUN_TIME>(m, counts, sink, ts, pf),
+        }
+    }
+
+    /// [`Self::run_rows`] with prefetch hint `H` ([`Prefetch::line_as`]).
+    ///
+    /// # Safety
+    /// As [`Self::run_rows`].
+    #[inline(always)]
+    unsafe fn rows_as<const G: usize, const DIAG: bool, const COUNTS: bool, S: RowsRead, const H: u8>(
+        &self,
+        m: Matrix<'_, T>,
+        counts: &mut [u32],
+        sink: &mut BitSink,
         (t, sums): (&mut Tally, &mut S),
+        pf: Prefetch,
     ) {
         assert!(self.rows == 1 && self.vectors == G && m.cols() == self.k);
         let w = T::W512;
@@ -65,7 +93,6 @@ impl<T: Prediction> ShortRows<T> {
         let mut masks = [0u32; BATCH];
         let (stride, total) = (m.row_stride(), m.rows());
         let (mut word, mut filled) = (0u64, 0u32);
-        let pf = Prefetch::now();
         for b0 in (0..total).step_by(BATCH) {
             let n = BATCH.min(total - b0);
             // Bounds of the batch checked once: its last row is in `m`.
@@ -83,7 +110,7 @@ impl<T: Prediction> ShortRows<T> {
                         // The line ahead of each vector, as in the other kernels
                         // (without it, screening f64 rows of 16 from memory spent
                         // half its time on these loads: perf).
-                        pf.line(p.wrapping_add(w * g));
+                        pf.line_as::<H, T>(p.wrapping_add(w * g));
                         // `wrapping_add`: the second vector of a one-vector row is never read.
                         let v = T::load512(lanes[g], p.wrapping_add(w * g));
                         let inside = T::inside512(lanes[g], v, self.low[g], self.high[g]);
