@@ -26,3 +26,27 @@ def _stream_saves_after_every_chunk(request, monkeypatch):
         from edmf_rs.stream import checkpoint
 
         monkeypatch.setattr(checkpoint, "MAX_SAVE_SHARE", 1.0)
+
+
+@pytest.fixture
+def full_disk(monkeypatch):
+    """``full_disk(writer, failing=1)``: call number ``failing`` of the checkpoint's
+    ``writer`` (``save_npy`` or ``save_state``, module-level in
+    ``edmf_rs.stream.checkpoint`` for this) fails as on a full disk (ENOSPC); the
+    other calls write."""
+    import errno
+
+    from edmf_rs.stream import checkpoint
+
+    def arm(writer: str, failing: int = 1) -> None:
+        original, calls = getattr(checkpoint, writer), [0]
+
+        def full(*args):
+            calls[0] += 1
+            if calls[0] == failing:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            return original(*args)
+
+        monkeypatch.setattr(checkpoint, writer, full)
+
+    return arm

@@ -240,20 +240,13 @@ def test_a_state_with_nothing_done_claims_only_the_names_it_lists(tmp_path):
 # -- a full disk during the first save ----------------------------------------
 
 @pytest.mark.parametrize("writer, failing", [("save_state", 1), ("save_npy", 1), ("save_npy", 2), ("save_state", 2)])
-def test_a_full_disk_during_the_first_save_leaves_the_folder_as_it_was(tmp_path, monkeypatch, writer, failing):
+def test_a_full_disk_during_the_first_save_leaves_the_folder_as_it_was(tmp_path, monkeypatch, full_disk, writer,
+                                                                       failing):
     folder = tmp_path / "run"
     folder.mkdir()
     (folder / "notes.txt").write_bytes(USER)
     original = getattr(checkpoint, writer)
-    calls = [0]
-
-    def full(*args):
-        calls[0] += 1
-        if calls[0] == failing:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        return original(*args)
-
-    monkeypatch.setattr(checkpoint, writer, full)
+    full_disk(writer, failing)
     with pytest.raises(checkpoint.CheckpointError, match="No space left on device.*Nothing was saved") as info:
         _run(folder, "falsify")
     assert info.value.errno == errno.ENOSPC
@@ -263,14 +256,10 @@ def test_a_full_disk_during_the_first_save_leaves_the_folder_as_it_was(tmp_path,
     _check(_run(folder, "falsify"), *_case())
 
 
-def test_a_full_disk_when_resuming_a_run_that_did_nothing_keeps_its_state(tmp_path, monkeypatch):
+def test_a_full_disk_when_resuming_a_run_that_did_nothing_keeps_its_state(tmp_path, monkeypatch, full_disk):
     folder = _killed(tmp_path, 2, "after")
     before = (folder / "state.json").read_bytes()
-
-    def full(*args):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-
-    monkeypatch.setattr(checkpoint, "save_npy", full)
+    full_disk("save_npy")  # the resumed run's first part
     with pytest.raises(checkpoint.CheckpointError, match="still holds the state after instance 0"):
         _run(folder, "falsify")
     assert (folder / "state.json").read_bytes() == before

@@ -478,23 +478,14 @@ def test_a_process_the_model_forks_does_not_keep_the_folder_locked(tmp_path):
 # -- full disk ---------------------------------------------------------------
 
 @pytest.mark.parametrize("writer", ["save_npy", "save_state"])
-def test_full_disk_gives_clear_error_and_keeps_previous_state(tmp_path, monkeypatch, writer):
+def test_full_disk_gives_clear_error_and_keeps_previous_state(tmp_path, monkeypatch, full_disk, writer):
     predictions, y, t = _case()
     path = tmp_path / "p.npy"
     np.save(path, predictions)
     folder = tmp_path / "run"
     original = getattr(checkpoint, writer)
-    calls = [0]
     # The 7th save's write (the first state written is the first save's claim, see test_first_save.py).
-    failing = 8 if writer == "save_state" else 7
-
-    def full(*args):
-        calls[0] += 1
-        if calls[0] == failing:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        return original(*args)
-
-    monkeypatch.setattr(checkpoint, writer, full)
+    full_disk(writer, 8 if writer == "save_state" else 7)
     with pytest.raises(OSError) as info:
         edmf_rs.falsify(path, y, t, chunk_rows=CHUNK, checkpoint=folder, checkpoint_every=0)
     assert isinstance(info.value, checkpoint.CheckpointError) and info.value.errno == errno.ENOSPC

@@ -17,8 +17,11 @@ use std::sync::atomic::{AtomicU8, AtomicUsize, Ordering};
 /// of this CPU's (`t0|t1|t2|nta:<bytes ahead>` or `off`), to compare them.
 pub const PREFETCH_ENV: &str = "EDMF_RS_PREFETCH";
 
-/// Which cache a prefetched line goes to (`_MM_HINT_*`).
+/// Which cache a prefetched line goes to (`_MM_HINT_*`). Each one's value
+/// is the code the hint in use is stored as (`Prefetch::now` reads it) and
+/// that [`Prefetch::line_as`] takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
 pub enum Hint {
     T0,
     /// Into L2 (and L3), not L1.
@@ -90,8 +93,7 @@ impl Prefetch {
     /// for a moment: harmless, a prefetch is a hint.
     pub fn set(self) {
         BYTES.store(self.bytes, Ordering::Relaxed);
-        let h = HINTS.iter().position(|&h| h == self.hint).unwrap_or(HINTS.len() - 1);
-        HINT.store(h as u8, Ordering::Relaxed);
+        HINT.store(self.hint as u8, Ordering::Relaxed);
     }
 
     #[cold]
@@ -117,7 +119,7 @@ impl Prefetch {
     }
 }
 
-/// The hint in use, an index into [`HINTS`] ([`UNSET`] until chosen),
+/// The hint in use, as its `Hint as u8` ([`UNSET`] until chosen),
 /// and the bytes ahead: two atomics, read on every prefetch (a relaxed load
 /// is a plain load on x86-64; through `falsify` no slower than a constant).
 static HINT: AtomicU8 = AtomicU8::new(UNSET);
@@ -125,7 +127,6 @@ static BYTES: AtomicUsize = AtomicUsize::new(0);
 const UNSET: u8 = u8::MAX;
 /// `line_as`'s code for a hint chosen on every line.
 pub const RUN_TIME: u8 = u8::MAX;
-const HINTS: [Hint; 5] = [Hint::T0, Hint::T1, Hint::T2, Hint::Nta, Hint::Off];
 
 impl Prefetch {
     /// The prefetch of the AVX2 kernels and of the AVX-512 kernels of longer
@@ -164,8 +165,8 @@ impl Prefetch {
         Prefetch { hint, bytes: BYTES.load(Ordering::Relaxed) }
     }
 
-    /// [`Prefetch::line`] with the hint a constant, `H` = [`Prefetch::code`]
-    /// of it (or [`RUN_TIME`]: `self`'s, chosen on every line). A loop that
+    /// [`Prefetch::line`] with the hint a constant, `H` = its `Hint as u8`
+    /// (or [`RUN_TIME`]: `self`'s, chosen on every line). A loop that
     /// prefetches on every row pays for choosing the hint at run time: a
     /// jump through a table each time (see `row_batches`).
     #[inline(always)]
@@ -184,15 +185,14 @@ impl Prefetch {
         }
     }
 
-    /// The hint as `line_as` takes it: its index in [`HINTS`].
-    pub fn code(self) -> u8 {
-        HINTS.iter().position(|&h| h == self.hint).unwrap_or(HINTS.len() - 1) as u8
-    }
-
     /// Asks for the line `self.bytes` past `p`. A prefetch never faults, so
     /// addresses past the end of the data are harmless.
     #[inline(always)]
     pub fn line<T>(self, p: *const T) {
+        // Its own match, not one through `line_as`: written that way, the
+        // periodic kernel screened rows of 5 and 10 at 0.90-0.94 of this
+        // speed alone (AMD EPYC Zen 4; `benches/results-short-rows.txt`,
+        // "session 29 review: the prefetch hint's code").
         let q = (p as *const i8).wrapping_add(self.bytes);
         // SAFETY: SSE is part of x86-64; prefetching any address is allowed.
         unsafe {
@@ -227,9 +227,11 @@ mod tests {
         for name in ["t0:0", "t1:8192", "t2:64", "nta:4096", "off"] {
             assert_eq!(Prefetch::from_name(name).unwrap().name(), name);
         }
-        // `line_as`'s codes: the hint's place in HINTS, none of them RUN_TIME.
-        let codes: Vec<u8> = ["t0:0", "t1:0", "t2:0", "nta:0", "off"].iter().map(|n| Prefetch::from_name(n).unwrap().code()).collect();
+        // `line_as`'s codes, none of them RUN_TIME ...
+        let codes: Vec<u8> = ["t0:0", "t1:0", "t2:0", "nta:0", "off"].iter().map(|n| Prefetch::from_name(n).unwrap().hint as u8).collect();
         assert_eq!(codes, [0, 1, 2, 3, 4]);
+        // ... in the order `now` decodes them.
+        assert_eq!([Hint::T0, Hint::T1, Hint::T2, Hint::Nta, Hint::Off].map(|h| h as u8), [0, 1, 2, 3, 4]);
         assert!(!codes.contains(&RUN_TIME));
     }
 }

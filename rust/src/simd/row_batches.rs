@@ -21,7 +21,7 @@
 //! `falsify`, screening f64 rows of 16 went from 0.66-0.69 to 1.02-1.05 of
 //! the read floor (section "session 13: side by side").
 
-use super::prefetch::{Prefetch, RUN_TIME};
+use super::prefetch::{Hint, Prefetch, RUN_TIME};
 use super::bit_counts::BitPlanes;
 use super::checksum::RowsRead;
 use super::short::ShortRows;
@@ -57,9 +57,9 @@ impl<T: Prediction> ShortRows<T> {
         // and screened 1.12-1.37 (AMD EPYC Zen 4; `benches/results-short-rows.txt`,
         // "session 29: the row batches' prefetch hint").
         let pf = Prefetch::now();
-        match pf.code() {
-            1 => self.rows_as::<G, DIAG, COUNTS, S, 1>(m, counts, sink, ts, pf),
-            3 => self.rows_as::<G, DIAG, COUNTS, S, 3>(m, counts, sink, ts, pf),
+        match pf.hint {
+            Hint::T1 => self.rows_as::<G, DIAG, COUNTS, S, { Hint::T1 as u8 }>(m, counts, sink, ts, pf),
+            Hint::Nta => self.rows_as::<G, DIAG, COUNTS, S, { Hint::Nta as u8 }>(m, counts, sink, ts, pf),
             _ => self.rows_as::<G, DIAG, COUNTS, S, RUN_TIME>(m, counts, sink, ts, pf),
         }
     }
