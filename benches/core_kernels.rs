@@ -8,7 +8,11 @@
 //!
 //! Cases as in `core_rate.py`: "worst", every residual inside its interval
 //! (all candidates); "typical", residuals N(0, s) with s such that a row is
-//! a candidate with probability 5 %, every sensor rejecting some rows.
+//! a candidate with probability 5 %, every sensor rejecting some rows. And
+//! "singles": each row, at random with probability 1/2, rejected by exactly
+//! one sensor (drawn at random), else a candidate: the least predictable
+//! pattern for a branch on a row's verdict or its "falsified only by"
+//! sensor. `CORE_KERNELS_CASES=worst,singles` picks the cases.
 
 use edmf_core::kernel::{diagnose_bits_with, screen_bits_with, BitSink, ScreenPlan, SensorBounds};
 use edmf_core::{Isa, Matrix, Prediction, Tally};
@@ -55,6 +59,19 @@ fn two_sided(q: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
+/// Rows of `n_m` values all inside (-1, 1): each, with probability 1/2,
+/// gets one sensor, drawn at random, moved to 2 (rejected by it alone).
+fn single_rejections(values: &mut [f64], n_m: usize) {
+    let draws = normals(values.len() / n_m);
+    for (row, d) in values.chunks_exact_mut(n_m).zip(draws) {
+        // The fraction's digits as a uniform draw (independent of its sign).
+        let u = (d.abs() * 1e6).fract();
+        if u < 0.5 {
+            row[((u * 2.0 * n_m as f64) as usize).min(n_m - 1)] = 2.0;
+        }
+    }
+}
+
 /// GB/s of the best round of `calls` calls of diagnostics (or screening) over `data`.
 fn rate<T: Prediction>(isa: Isa, data: &[T], n_m: usize, diagnostics: bool) -> f64 {
     let n = data.len() / n_m;
@@ -87,6 +104,7 @@ fn main() {
     let cpu = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let model = cpu.lines().find(|l| l.starts_with("model name")).unwrap_or("model name: unknown");
     println!("{model}; one thread; {} KiB a call, 2000 calls a round, best of 15 rounds", BYTES / 1024);
+    let cases = std::env::var("CORE_KERNELS_CASES").unwrap_or_else(|_| "worst,typical".into());
     for isa in Isa::available().into_iter().filter(|&i| i != Isa::Portable) {
         println!("{isa:?}: dtype n_m case diagnostics screen (GB/s)");
         let default = "f64:5,f64:10,f64:16,f64:20,f32:5,f32:10,f32:16,f32:20";
@@ -96,13 +114,18 @@ fn main() {
                 panic!("CORE_KERNELS: expected dtype:n_m pairs such as f32:10, got {case:?}");
             };
             assert!(matches!(dtype, "f32" | "f64") && n_m > 0, "CORE_KERNELS: {case:?}");
-            for case in ["worst", "typical"] {
+            for case in cases.split(',') {
                 let size = if dtype == "f32" { 4 } else { 8 };
                 let z = two_sided(0.05f64.powf(1.0 / n_m as f64));
-                let values: Vec<f64> = normals(BYTES / (n_m * size) * n_m)
+                let mut values: Vec<f64> = normals(BYTES / (n_m * size) * n_m)
                     .into_iter()
-                    .map(|v| if case == "worst" { (v / 10.0).clamp(-0.99, 0.99) } else { v / z })
+                    .map(|v| if case == "typical" { v / z } else { (v / 10.0).clamp(-0.99, 0.99) })
                     .collect();
+                if case == "singles" {
+                    single_rejections(&mut values, n_m);
+                } else {
+                    assert!(matches!(case, "worst" | "typical"), "CORE_KERNELS_CASES: unknown case {case:?}");
+                }
                 let (on, off) = if dtype == "f32" {
                     let v: Vec<f32> = values.iter().map(|&x| x as f32).collect();
                     (rate(isa, &v, n_m, true), rate(isa, &v, n_m, false))

@@ -130,17 +130,21 @@ fn case<T: Prediction + edmf_core::digest::Value>(data: &[T], n_m: usize, label:
     let methods = ["falsify diag", "falsify scr", "halves diag", "halves scr"];
     let mut ratios = vec![Vec::new(); methods.len()];
     let mut floors = Vec::new();
-    for _ in 0..rounds {
+    for round in 0..rounds {
         let f = floor(data);
         floors.push(f);
-        let t = [
-            falsify(m, &thr, Mode::Diagnose, &p),
-            falsify(m, &thr, Mode::Screen, &p),
-            halves(m, &b, &plan, true),
-            halves(m, &b, &plan, false),
-        ];
-        for (r, t) in ratios.iter_mut().zip(t) {
-            r.push(f / t);
+        // Each round starts at another method, so none always runs first
+        // after the floor (whose read leaves the caches and prefetchers in
+        // a state of its own).
+        for k in 0..methods.len() {
+            let which = (round + k) % methods.len();
+            let t = match which {
+                0 => falsify(m, &thr, Mode::Diagnose, &p),
+                1 => falsify(m, &thr, Mode::Screen, &p),
+                2 => halves(m, &b, &plan, true),
+                _ => halves(m, &b, &plan, false),
+            };
+            ratios[which].push(f / t);
         }
     }
     let (fm, flo, fhi) = median_range(floors);
