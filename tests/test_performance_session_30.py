@@ -2,13 +2,13 @@
 kernel's doc (rust/src/simd/medium_avx2.rs), recomputed from the runs recorded
 in benches/results-short-rows.txt: the row-batch widths through memory, and
 "falsified only by" in the AVX2 medium kernel (a branch, not kept; vector
-counters, kept)."""
+counters, kept), and the row batches' masks read a batch later."""
 
 import re
 
 # The pages, results and patterns session 29's checks read, read the same way.
 from test_performance_session_29 import MEDIUM_DOC, PAGE, PAIR, README, SHORT_ROWS, _span
-from test_performance_session_29 import _section as _section_of
+from test_performance_session_29 import ROOT, _section as _section_of
 
 CASE = re.compile(r"^(f32|f64) rows of (\d+), (worst|typical): floor ([\d.]+) ms.*\n((?:  .*\n?){4})", re.M)
 
@@ -82,3 +82,29 @@ def test_the_branch_that_was_not_kept():
     steady, singles = ([float(m[5]) for m in lines if (m[4] == "singles") == s] for s in (False, True))
     assert f"the AVX2 medium kernel's rows of 2-7 vectors {_span(steady)} times as fast " \
            f"({_span(singles)} with half the rows rejected by one sensor)" in " ".join(section.split())
+
+
+def test_the_row_batches_masks_read_a_batch_later():
+    section = _section("session 30: the row batches' masks read a batch later")
+    kept = _part(section, "the change kept")
+    row_batch = {"f32": {9, 17, 25, 31}, "f64": {9, 16}}
+    diag = _diag_ratios(kept, "Avx512", row_batch)
+    assert len(diag) == 6 * 3
+    claim = f"ran {_span(diag)} times as fast"
+    assert claim + " deferred (AMD EPYC Zen 4" in " ".join(
+        (ROOT / "rust" / "src" / "simd" / "row_batches.rs").read_text().replace("//", "").split())
+    assert f"the last in the floor table) {claim}" in PAGE
+    assert f"those widths with diagnostics {claim} alone" in README
+    memory = _part(section, "through memory")
+    slow = [float(m[2]) for m in re.finditer(r"floor ([\d.]+) ms \(.*?falsify diag\s+speed / floor ([\d.]+)", memory)
+            if float(m[1]) > 23]
+    fast = [float(m[2]) for m in re.finditer(r"typical: floor ([\d.]+) ms \(.*?falsify diag\s+speed / floor ([\d.]+)",
+                                             memory) if float(m[1]) < 18]
+    assert len(slow) == 20 and len(fast) == 3
+    assert f"where the floor read in 23-29 ms, the two builds both read {_span(slow)} of it" in PAGE
+    assert f"met the fast floor where the old one was short ({_span(fast)}, typical" in PAGE
+    tries = _part(section, "first, two other tries")
+    medium = [float(m[3]) for m in re.finditer(r"^Avx512 (f32|f64) +(\d+) \w+ \|.*\| m512 ([\d.]+)/", tries, re.M)
+              if int(m[2]) in {"f32": {33, 50, 64}, "f64": {17, 25, 32}}[m[1]]]
+    assert len(medium) == 6 * 3
+    assert f"vector counters ({_span(medium)})" in PAGE

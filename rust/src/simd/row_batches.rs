@@ -90,92 +90,108 @@ impl<T: Prediction> ShortRows<T> {
         let (mut inside_lane, mut only) = ([zero; 2], BitPlanes::new());
         let mut only_by = [0u64; 32];
         let mut invalid = 0u64;
-        let mut masks = [0u32; BATCH];
+        // The masks of two batches: with diagnostics or counts, a batch's
+        // sixteen masks are read back as one vector a batch later, when their
+        // stores have reached the cache. Read at once, the load waited for the
+        // sixteen stores (x86 forwards a load from one store, not from
+        // sixteen): alone on a core, the row-batch widths with diagnostics ran
+        // 1.00-1.26 times as fast deferred (AMD EPYC Zen 4;
+        // `benches/results-short-rows.txt`, "session 30: the row batches'
+        // masks read a batch later").
+        let mut masks = [[0u32; BATCH]; 2];
         let (stride, total) = (m.row_stride(), m.rows());
-        let (mut word, mut filled) = (0u64, 0u32);
-        for b0 in (0..total).step_by(BATCH) {
-            let n = BATCH.min(total - b0);
-            // Bounds of the batch checked once: its last row is in `m`.
-            let _ = m.row_slice(b0 + n - 1).expect("contiguous rows");
-            let base = m.row_slice(b0).expect("contiguous rows").as_ptr();
-            let mut sum = [T::zero512(); 2];
-            let mut screened = 0u16;
-            // `BATCH` constant: unrolled, the row offsets are immediates.
-            #[allow(clippy::needless_range_loop)]
-            for i in 0..BATCH {
-                if i < n {
-                    let p = base.add(i * stride);
-                    let mut mask = 0u32;
-                    for g in 0..G {
-                        // The line ahead of each vector, as in the other kernels
-                        // (without it, screening f64 rows of 16 from memory spent
-                        // half its time on these loads: perf).
-                        pf.line_as::<H, T>(p.wrapping_add(w * g));
-                        // `wrapping_add`: the second vector of a one-vector row is never read.
-                        let v = T::load512(lanes[g], p.wrapping_add(w * g));
-                        let inside = T::inside512(lanes[g], v, self.low[g], self.high[g]);
-                        mask |= inside << (w * g);
-                        if DIAG {
-                            let add = _mm512_mask_add_epi32(inside_lane[g], inside as __mmask16, inside_lane[g], ones);
-                            inside_lane[g] = add;
-                            sum[g] = T::add512(sum[g], v);
+        let mut verdicts = Verdicts { word: 0, filled: 0 };
+        let batches = total.div_ceil(BATCH);
+        let deferred = DIAG || COUNTS;
+        for b in 0..batches + usize::from(deferred) {
+            if b < batches {
+                let b0 = b * BATCH;
+                let n = BATCH.min(total - b0);
+                let masks = &mut masks[b % 2];
+                // Bounds of the batch checked once: its last row is in `m`.
+                let _ = m.row_slice(b0 + n - 1).expect("contiguous rows");
+                let base = m.row_slice(b0).expect("contiguous rows").as_ptr();
+                let mut sum = [T::zero512(); 2];
+                let mut screened = 0u16;
+                // `BATCH` constant: unrolled, the row offsets are immediates.
+                #[allow(clippy::needless_range_loop)]
+                for i in 0..BATCH {
+                    if i < n {
+                        let p = base.add(i * stride);
+                        let mut mask = 0u32;
+                        for g in 0..G {
+                            // The line ahead of each vector, as in the other kernels
+                            // (without it, screening f64 rows of 16 from memory spent
+                            // half its time on these loads: perf).
+                            pf.line_as::<H, T>(p.wrapping_add(w * g));
+                            // `wrapping_add`: the second vector of a one-vector row is never read.
+                            let v = T::load512(lanes[g], p.wrapping_add(w * g));
+                            let inside = T::inside512(lanes[g], v, self.low[g], self.high[g]);
+                            mask |= inside << (w * g);
+                            if DIAG {
+                                let lane = inside_lane[g];
+                                inside_lane[g] = _mm512_mask_add_epi32(lane, inside as __mmask16, lane, ones);
+                                sum[g] = T::add512(sum[g], v);
+                            }
                         }
+                        masks[i] = mask;
+                        if !DIAG && !COUNTS {
+                            // Screening: the verdict straight from the mask, not from the
+                            // sixteen masks read back as one vector (x86 forwards a load
+                            // from one store, not from sixteen: the load waits for them).
+                            screened |= ((mask == row_lanes) as u16) << i;
+                        }
+                    } else {
+                        // Past the last row: no rejecting sensor, masked off below.
+                        masks[i] = row_lanes;
                     }
-                    masks[i] = mask;
-                    if !DIAG && !COUNTS {
-                        // Screening: the verdict straight from the mask, not from the
-                        // sixteen masks read back as one vector (x86 forwards a load
-                        // from one store, not from sixteen: the load waits for them).
-                        screened |= ((mask == row_lanes) as u16) << i;
+                }
+                sums.rows_read(base.add((n - 1) * stride + self.k) as *const u8);
+                if !deferred {
+                    verdicts.add(screened, n, sink);
+                }
+                if DIAG {
+                    let nan = (0..G).fold(0, |a, g| a | T::nan512(lanes[g], sum[g]));
+                    if nan != 0 {
+                        // Rare: a NaN row is never a candidate, counted once.
+                        invalid += (0..n)
+                            .filter(|&i| {
+                                let p = base.add(i * stride);
+                                (0..G).any(|g| T::nan512(lanes[g], T::load512(lanes[g], p.wrapping_add(w * g))) != 0)
+                            })
+                            .count() as u64;
                     }
-                } else {
-                    // Past the last row: no rejecting sensor, masked off below.
-                    masks[i] = row_lanes;
                 }
             }
-            sums.rows_read(base.add((n - 1) * stride + self.k) as *const u8);
-            let valid = if n == BATCH { u16::MAX } else { ((1u32 << n) - 1) as u16 };
-            // Rejecting sensors of each row: its lanes outside (not needed to screen).
-            let (candidates, out) = if !DIAG && !COUNTS {
-                (screened, zero)
-            } else {
+            if deferred && b > 0 {
+                // The batch before.
+                let b0 = (b - 1) * BATCH;
+                let n = BATCH.min(total - b0);
+                let masks = &mut masks[(b - 1) % 2];
+                let valid = if n == BATCH { u16::MAX } else { ((1u32 << n) - 1) as u16 };
+                // Rejecting sensors of each row: its lanes outside (not needed to screen).
                 let out = _mm512_xor_si512(_mm512_loadu_si512(masks.as_ptr() as *const __m512i), all);
-                (_mm512_mask_cmpeq_epi32_mask(valid, out, zero), out)
-            };
-            word |= (candidates as u64) << filled;
-            filled += n as u32;
-            if filled == 64 {
-                sink.push(word, 64);
-                (word, filled) = (0, 0);
-            }
-            if COUNTS {
-                _mm512_storeu_si512(masks.as_mut_ptr() as *mut __m512i, out);
-                for (c, o) in counts[b0..b0 + n].iter_mut().zip(&masks) {
-                    *c = o.count_ones();
+                let candidates = _mm512_mask_cmpeq_epi32_mask(valid, out, zero);
+                verdicts.add(candidates, n, sink);
+                if COUNTS {
+                    _mm512_storeu_si512(masks.as_mut_ptr() as *mut __m512i, out);
+                    for (c, o) in counts[b0..b0 + n].iter_mut().zip(masks.iter()) {
+                        *c = o.count_ones();
+                    }
                 }
-            }
-            if DIAG {
-                // Exactly one rejecting sensor: out != 0 and out & (out - 1) == 0.
-                let several = _mm512_test_epi32_mask(out, _mm512_sub_epi32(out, ones));
-                let single = valid & !candidates & !several;
-                if single != 0 && only.add(_mm512_maskz_mov_epi32(single, out)) {
-                    // The one rejecting sensor's bit, of those rows.
-                    only.flush(&mut only_by);
-                }
-                let nan = (0..G).fold(0, |a, g| a | T::nan512(lanes[g], sum[g]));
-                if nan != 0 {
-                    // Rare: a NaN row is never a candidate, counted once.
-                    invalid += (0..n)
-                        .filter(|&i| {
-                            let p = base.add(i * stride);
-                            (0..G).any(|g| T::nan512(lanes[g], T::load512(lanes[g], p.wrapping_add(w * g))) != 0)
-                        })
-                        .count() as u64;
+                if DIAG {
+                    // Exactly one rejecting sensor: out != 0 and out & (out - 1) == 0.
+                    let several = _mm512_test_epi32_mask(out, _mm512_sub_epi32(out, ones));
+                    let single = valid & !candidates & !several;
+                    if single != 0 && only.add(_mm512_maskz_mov_epi32(single, out)) {
+                        // The one rejecting sensor's bit, of those rows.
+                        only.flush(&mut only_by);
+                    }
                 }
             }
         }
-        if filled > 0 {
-            sink.push(word, filled);
+        if verdicts.filled > 0 {
+            sink.push(verdicts.word, verdicts.filled);
         }
         if DIAG {
             only.flush(&mut only_by);
@@ -190,6 +206,25 @@ impl<T: Prediction> ShortRows<T> {
                 t.only_by[j] += only_by[j];
             }
             t.invalid += invalid;
+        }
+    }
+}
+
+/// Candidate bits of batches, pushed to the sink 64 at a time.
+struct Verdicts {
+    word: u64,
+    filled: u32,
+}
+
+impl Verdicts {
+    /// Adds the bits of a batch of `n` rows (bit `i`: row `i` a candidate).
+    #[inline(always)]
+    fn add(&mut self, bits: u16, n: usize, sink: &mut BitSink) {
+        self.word |= (bits as u64) << self.filled;
+        self.filled += n as u32;
+        if self.filled == 64 {
+            sink.push(self.word, 64);
+            (self.word, self.filled) = (0, 0);
         }
     }
 }
