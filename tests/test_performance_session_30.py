@@ -108,3 +108,21 @@ def test_the_row_batches_masks_read_a_batch_later():
               if int(m[2]) in {"f32": {33, 50, 64}, "f64": {17, 25, 32}}[m[1]]]
     assert len(medium) == 6 * 3
     assert f"vector counters ({_span(medium)})" in PAGE
+
+
+def test_the_avx2_intervals_in_registers():
+    section = _section("session 30: the AVX2 intervals in registers")
+    alone = _part(section, "alone on one core")
+    diag = _diag_ratios(alone, "Avx2", {"f32": {17, 25, 33, 50, 64}, "f64": {9, 17, 25, 33, 50, 64}})
+    assert len(diag) == 11 * 3
+    claim = f"ran {_span(diag)} times as fast"
+    code = " ".join((ROOT / "rust" / "src" / "simd" / "medium_avx2.rs").read_text().replace("//", "").split())
+    assert f"rows of 9-64 sensors with diagnostics {claim}" in code
+    assert f"rows of 9-64 sensors with diagnostics {claim} alone" in PAGE
+    memory = _part(section, "through memory")
+    medians = {label: [float(x) for x in re.findall(rf"^{label} .*speed / floor ([\d.]+)", memory, re.M)]
+               for label in ("head", "regs")}
+    assert [len(v) for v in medians.values()] == [12, 12]
+    assert f"read {_span(medians['regs'])} of the floor against {_span(medians['head'])} before" in PAGE
+    higher = sum(a > b for a, b in zip(medians["regs"], medians["head"]))
+    assert f"'regs' higher in {higher} of the 12 pairs" in section
