@@ -102,6 +102,7 @@ impl<T: Prediction> ShortRows<T> {
         let (stride, total) = (m.row_stride(), m.rows());
         let mut verdicts = Verdicts { word: 0, filled: 0 };
         let batches = total.div_ceil(BATCH);
+        // Screening takes each verdict from its row's mask and defers nothing.
         let deferred = DIAG || COUNTS;
         for b in 0..batches + usize::from(deferred) {
             if b < batches {
@@ -135,10 +136,9 @@ impl<T: Prediction> ShortRows<T> {
                             }
                         }
                         masks[i] = mask;
-                        if !DIAG && !COUNTS {
+                        if !deferred {
                             // Screening: the verdict straight from the mask, not from the
-                            // sixteen masks read back as one vector (x86 forwards a load
-                            // from one store, not from sixteen: the load waits for them).
+                            // sixteen masks read back as one vector.
                             screened |= ((mask == row_lanes) as u16) << i;
                         }
                     } else {
