@@ -6,10 +6,17 @@ use super::*;
 use crate::kernel::{diagnose_bits_with, screen_bits_with};
 use crate::testing::uniform;
 
-/// Predictions mostly inside `[-1, 1]` (some rows candidates, some not), with a NaN.
+/// Predictions mostly inside `[-1, 1]` (some rows candidates, some not),
+/// with a NaN, and the middle third of the rows candidates but for one (runs
+/// of candidate rows, which some kernels test for their verdicts first).
 fn rows_of<T: Value + From<f32>>(rows: usize, n_m: usize, state: &mut u64) -> Vec<T> {
+    let middle = rows / 3 * n_m..2 * rows / 3 * n_m;
     let mut v: Vec<T> = (0..rows * n_m)
-        .map(|_| T::from((uniform(state) * 2.3 - 1.15) as f32))
+        .map(|i| match (middle.contains(&i), i == middle.start + middle.len() / 2) {
+            (true, true) => T::from(2.0),
+            (true, false) => T::from((uniform(state) * 1.8 - 0.9) as f32),
+            _ => T::from((uniform(state) * 2.3 - 1.15) as f32),
+        })
         .collect();
     if let Some(x) = v.get_mut(rows * n_m / 3) {
         *x = T::from(f32::NAN);

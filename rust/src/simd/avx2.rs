@@ -1,8 +1,10 @@
 //! AVX2: rows of more than eight sensors are tested by `long_avx2`, in the
 //! predictions' own type, except that rows of 9-64 sensors stored one
 //! after another are diagnosed by `medium_avx2` (the same work for every
-//! row); rows of up to eight by `short_avx2`, widened to f64. Rows stored back to back whose pattern repeats within eight vectors
-//! of 8 f64 or 16 f32 (rows of 5 and 10 among them), and rows of whole
+//! row; rows of up to 32 f32 or 20 f64 sensors by `medium_avx2_short`) and
+//! screened by `medium_avx2_screen`; rows of up to eight by `short_avx2`,
+//! widened to f64. Rows stored back to back whose pattern repeats within
+//! eight vectors of 8 f64 or 16 f32 (rows of 5 and 10 among them), and rows of whole
 //! vectors, two or more to a period (f64 rows of 8, 16, 24 and 32 sensors,
 //! f32 of 16, 32 and 48: `Period::whole_rows`), take the periodic kernel instead
 //! (`periodic_avx2`) when the bits are asked for, as `falsify` does.
@@ -10,6 +12,7 @@
 use super::checksum::{Fletcher2, FletcherRows, RowsRead};
 use super::long_avx2;
 use super::medium_avx2;
+use super::medium_avx2_screen;
 use super::periodic::{NoSums, Periodic, SumVectors};
 use super::periodic_avx2::{fast_pext, Avx2Vectors};
 use super::short_avx2::{takes, ShortRows4};
@@ -81,6 +84,9 @@ fn screen_rows<T: Prediction, S: RowsRead>(
     if takes(&m) {
         // SAFETY: as in `diagnose`.
         unsafe { ShortRows4::new(b).screen(m, out) };
+    } else if medium_avx2::vectors::<T>(m.cols()).is_some() && (m.rows() == 0 || m.row_slice(0).is_some()) {
+        // SAFETY: AVX2 is enabled; the kernel takes the width; rows are contiguous.
+        unsafe { medium_avx2_screen::screen(m, b, out, sums) }
     } else {
         let mut read = *sums;
         screen_impl(m, b, plan, out, |row| {

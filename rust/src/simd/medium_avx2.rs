@@ -7,7 +7,9 @@
 //! expansion; f64 vectors two to a counter, see `pair_lanes`); the same
 //! lanes' sign bits make the row's accepting sensors one 64-bit word, whose
 //! complement's popcount is the violation count and whose lowest bit is the
-//! first rejecting sensor ("falsified only by": `counts_alone`).
+//! first rejecting sensor. Rows of up to four f32 and five f64 vectors
+//! (`counts_alone`) take `medium_avx2_short` instead, which counts "falsified
+//! only by" in vector lanes.
 //!
 //! Why: `long_avx2`, which took these rows before, counts per bit of the
 //! row's verdict string in byte lanes and reads a row's verdict first after
@@ -19,6 +21,7 @@
 //! (`benches/results-long-rows.txt`, "session 20").
 
 use super::checksum::RowsRead;
+use super::medium_avx2_short;
 use super::prefetch::Prefetch;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -67,16 +70,8 @@ pub(crate) unsafe fn diagnose_in_passes<T: Prediction, S: RowsRead>(
     (t, sums): (&mut Tally, &mut S),
     pass_rows: usize,
 ) {
-    macro_rules! arms {
-        ($($n:literal)*) => {
-            match vectors::<T>(m.cols()) {
-                // SAFETY (each arm): as this function's, `vectors` gave the arm's count.
-                $(Some($n) => unsafe { diagnose_rows::<T, $n, S>(m, b, out, (t, sums), pass_rows) },)*
-                v => panic!("rows of 9-64 sensors (2-16 vectors), got {} sensors ({v:?})", m.cols()),
-            }
-        };
-    }
-    arms!(2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+    // SAFETY: as this function's, `vectors` gave `V`.
+    by_vectors!(T, m.cols(), |V| unsafe { diagnose_rows::<T, V, S>(m, b, out, (t, sums), pass_rows) })
 }
 
 /// [`diagnose_in_passes`] for rows of `V` vectors.
@@ -92,6 +87,10 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     (t, sums): (&mut Tally, &mut S),
     pass_rows: usize,
 ) {
+    if counts_alone::<T>(V) {
+        // SAFETY: as this function's, and `counts_alone` holds.
+        return unsafe { medium_avx2_short::diagnose_rows::<T, V, S>(m, b, out, (t, sums), pass_rows) };
+    }
     let (k, w, accept) = (m.cols(), T::W512 / 2, T::accepted(b));
     assert!(vectors::<T>(k) == Some(V) && out.len() == m.rows() && t.per_sensor.len() == k);
     assert!(k >= w && accept[0].len() >= k && accept[1].len() >= k);
@@ -101,10 +100,8 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     // twice (the same verdict) and counted from that vector only.
     let start = |v: usize| if v + 1 < V { v * w } else { k - w };
     let row_lanes = u64::MAX >> (64 - k);
-    // "Falsified only by" in `V` more counters (see `counts_alone`) for
-    // short rows, else one add in memory per row at the row's lowest
+    // "Falsified only by": one add in memory per row at the row's lowest
     // rejecting sensor (index 64: no rejecting sensor, never counted).
-    let alone_in_lanes = counts_alone::<T>(V);
     let mut only_by = [0u64; 65];
     let mut read = *sums;
     let pf = Prefetch::FIXED;
@@ -118,7 +115,7 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     assert!(pass_rows > 0 && pass_rows < 1 << 32);
     for first in (0..m.rows()).step_by(pass_rows) {
         let end = (first + pass_rows).min(m.rows());
-        let (mut accepting, mut alone) = ([_mm256_setzero_si256(); V], [_mm256_setzero_si256(); V]);
+        let mut accepting = [_mm256_setzero_si256(); V];
         let mut invalid = 0u64;
         // f64: the even vector's accepting lanes, until the odd one's.
         let mut even = _mm256_setzero_si256();
@@ -127,8 +124,6 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
             let p = row.as_ptr();
             // Two sums: half the chain of additions.
             let (mut inside, mut sum) = (0u64, [T::zero256(); 2]);
-            // Each vector's accepting lanes, until the row's count is known.
-            let mut yes_lanes = [_mm256_setzero_si256(); V];
             unrolled!(V, |v| {
                 if v % 2 == 0 {
                     // A line ahead every 64 bytes of the row.
@@ -150,30 +145,12 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
                     accepting[v] = count::<T>(accepting[v], yes);
                 }
                 inside |= u64::from(sign_bits::<T>(yes)) << j;
-                yes_lanes[v] = yes;
                 sum[v % 2] = T::add256(sum[v % 2], x);
             });
             read.rows_read(row.as_ptr_range().end as *const u8);
             let rejects = !inside & row_lanes;
             let n = rejects.count_ones();
-            if alone_in_lanes {
-                // The row's rejecting lanes if it has one rejecting sensor.
-                let single = _mm256_set1_epi32(-i32::from(n == 1));
-                unrolled!(V, |v| {
-                    let rejecting = _mm256_andnot_si256(yes_lanes[v], single);
-                    if std::mem::size_of::<T>() == 8 {
-                        if v % 2 == 1 || v + 1 == V {
-                            // Lanes of a vector past the row's are never read.
-                            let even = _mm256_andnot_si256(yes_lanes[v - v % 2], single);
-                            alone[v / 2] = _mm256_sub_epi32(alone[v / 2], pair_lanes(even, rejecting));
-                        }
-                    } else {
-                        alone[v] = _mm256_sub_epi32(alone[v], rejecting);
-                    }
-                });
-            } else {
-                only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
-            }
+            only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
             // The row's sum is NaN iff a value is (or, rarely, infinities
             // cancel). Looked for inline: a call here, even never made, had
             // the counters stored and reloaded around it on every row.
@@ -183,11 +160,6 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
         let rows = (end - first) as u64;
         for (total, c) in t.per_sensor.iter_mut().zip(sensor_counts::<T, V>(&accepting, k)) {
             *total += rows - c;
-        }
-        if alone_in_lanes {
-            for (total, c) in only_by.iter_mut().zip(sensor_counts::<T, V>(&alone, k)) {
-                *total += c;
-            }
         }
         t.invalid += invalid;
     }
@@ -218,7 +190,7 @@ unsafe fn count<T: Prediction>(counter: __m256i, inside: __m256i) -> __m256i {
 /// `benches/results-long-rows.txt`, "session 29: AVX2 f64 counters").
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn pair_lanes(even: __m256i, odd: __m256i) -> __m256i {
+pub(super) unsafe fn pair_lanes(even: __m256i, odd: __m256i) -> __m256i {
     _mm256_blend_epi32::<0b1010_1010>(even, odd)
 }
 
@@ -258,7 +230,7 @@ unsafe fn sign_bits<T: Prediction>(inside: __m256i) -> u32 {
 /// AVX2 is available.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], k: usize) -> [u64; 64] {
+pub(super) unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], k: usize) -> [u64; 64] {
     let w = T::W512 / 2;
     let mut counts = [0u64; 64];
     for (v, acc) in counters.iter().enumerate() {
@@ -277,8 +249,8 @@ unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], 
     counts
 }
 
-/// Whether rows of `v` vectors count "falsified only by" in `v` more
-/// vector counters: each row subtracts its rejecting lanes where it has
+/// Whether rows of `v` vectors count "falsified only by" in vector lanes
+/// (`medium_avx2_short`): each row subtracts its rejecting lanes where it has
 /// one rejecting sensor (a broadcast, then an and-not and a subtraction a
 /// vector, no branch), rather than one add in memory per row at the row's
 /// lowest rejecting sensor. That add, at an address known only once the
@@ -291,6 +263,6 @@ unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], 
 /// by"). Longer rows hide the chain behind their own work, and more
 /// counters would not fit AVX2's 16 registers. A branch on the row's count
 /// instead ran faster alone but slower through memory in the typical case.
-fn counts_alone<T: Prediction>(v: usize) -> bool {
+pub(super) fn counts_alone<T: Prediction>(v: usize) -> bool {
     v <= if std::mem::size_of::<T>() == 8 { 5 } else { 4 }
 }

@@ -17,6 +17,24 @@ macro_rules! unrolled {
     };
 }
 
+/// `$call` with `$V` a constant: the AVX2 vectors of a row of `$k` sensors
+/// of type `$T` as `medium_avx2::vectors` gives them (2-16; panics
+/// otherwise), so each count gets its own compiled loop.
+macro_rules! by_vectors {
+    ($T:ty, $k:expr, |$V:ident| $call:expr) => {
+        by_vectors!(@ $T, $k, $V, $call, 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+    };
+    (@ $T:ty, $k:expr, $V:ident, $call:expr, $($n:literal)*) => {
+        match $crate::simd::medium_avx2::vectors::<$T>($k) {
+            $(Some($n) => {
+                const $V: usize = $n;
+                $call
+            })*
+            v => panic!("rows of 9-64 sensors (2-16 vectors), got {} sensors ({v:?})", $k),
+        }
+    };
+}
+
 pub mod avx2;
 pub mod avx512;
 pub mod bit_counts;
@@ -27,6 +45,8 @@ mod long;
 pub mod long_avx2;
 pub mod medium;
 pub mod medium_avx2;
+mod medium_avx2_screen;
+mod medium_avx2_short;
 pub mod periodic;
 pub mod periodic_avx2;
 pub mod prefetch;
