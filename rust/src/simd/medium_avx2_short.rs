@@ -121,7 +121,7 @@ pub(super) unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
 }
 
 /// `n` rows of `k` values from `p`, `stride` values apart, and the
-/// acceptance intervals (`low`, `high`, padded to whole vectors).
+/// acceptance intervals (lower and upper bounds, padded to whole vectors).
 #[derive(Clone, Copy)]
 struct Rows<T> {
     p: *const T,
@@ -132,7 +132,7 @@ struct Rows<T> {
 }
 
 impl<T: Prediction> Rows<T> {
-    /// Vector `v` of row `r`'s values, and its accepting lanes, all ones
+    /// Vector `v` of the row at `row`, and its accepting lanes, all ones
     /// (the last vector ends where the row does: see `medium_avx2`).
     ///
     /// # Safety
