@@ -111,3 +111,32 @@ def test_the_tries_on_the_way():
     assert len(slower) == 5 * 2
     claim = f"{_span(d for d, _ in slower)} times as fast"
     assert f"rows of few candidates ran {claim}" in SHORT_DOC and f"the other cases {claim}" in PAGE
+
+
+SIDE_BY_SIDE = re.compile(r"^ +(\d+) (f32|f64) +(\w+) +(diag|scr) .*old/new paired ([\d.]+)$", re.M)
+
+
+def test_side_by_side_through_falsify():
+    runs = SECTION.split("--- through falsify, side by side")[1:]
+    assert len(runs) == 3
+    rows = [(int(m[1]), m[2], m[4], float(m[5])) for run in runs
+            for m in SIDE_BY_SIDE.finditer(run.split("\nReading")[0])]
+    assert len(rows) == 24 + 8 + 24
+    pick = lambda keep: [r for n, d, mode, r in rows if keep(n, d, mode)]  # noqa: E731
+    screened = pick(lambda n, d, mode: mode == "scr" and n >= 17)
+    f32_9 = _span(pick(lambda n, d, mode: (n, d) == (9, "f32")))
+    f64_9 = _span(pick(lambda n, d, mode: (n, d) == (9, "f64")))
+    f32_diag = _span(pick(lambda n, d, mode: n in (17, 25) and d == "f32" and mode == "diag"))
+    f64_17 = _span(pick(lambda n, d, mode: (n, d, mode) == (17, "f64", "diag")))
+    rows_50 = _span(pick(lambda n, d, mode: n == 50 and mode == "diag"))
+    controls = _span(pick(lambda n, d, mode: n in (10, 16)))
+    below = f"below 1 in {sum(r < 1 for r in screened)} of the {len(screened)} cases"
+    assert f"time(old) / time(new) was {f32_9} for float32 rows of 9, {f64_9} for float64 rows of 9 and " \
+           f"{f32_diag} for float32 rows of 17 and 25 with diagnostics, but {f64_17} for float64 rows of 17 with " \
+           f"diagnostics, and screened rows of 17 sensors and more read {_span(screened)}, {below}" in PAGE
+    assert f"Rows of 50 with diagnostics (the longer rows' loop) read {rows_50}, the periodic widths 10 and 16 " \
+           f"(controls, not changed) {controls}" in PAGE
+    assert f"was {f32_9} for float32 rows of 9, but screened rows of 17 sensors and more read {_span(screened)} " \
+           f"and float64 rows of 17 with diagnostics {f64_17}" in README
+    reading = " ".join(SECTION.split("\nReading: side by side in one process")[1].split())
+    assert f"time(old) / time(new) {_span(screened)} there, {below}" in reading

@@ -10,7 +10,8 @@
 //! with a masked load. Alone on a core, float32 rows of 9-31 sensors and
 //! float64 rows of 9-17 screened 1.22-2.59 times as fast (AMD EPYC Zen 4;
 //! `benches/results-short-rows.txt`, "session 31: the AVX2 rows of 9-32
-//! sensors").
+//! sensors"); side by side through `falsify` it was not faster for rows of
+//! 17 sensors and more (same section), which is still to be understood.
 
 use super::checksum::RowsRead;
 use super::medium_avx2::vectors;
