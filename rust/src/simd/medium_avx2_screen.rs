@@ -15,7 +15,7 @@
 
 use super::checksum::RowsRead;
 use super::medium_avx2::vectors;
-use super::prefetch::Prefetch;
+use super::medium_avx2_short::Rows;
 use crate::kernel::{Prediction, SensorBounds};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
@@ -51,28 +51,24 @@ unsafe fn screen_rows<T: Prediction, const V: usize, S: RowsRead>(
     if m.rows() == 0 {
         return;
     }
-    let (low, high) = (accept[0].as_ptr(), accept[1].as_ptr());
-    let start = |v: usize| if v + 1 < V { v * w } else { k - w };
-    let stride = m.row_stride();
-    let mut p = m.row_slice(0).expect("contiguous rows (checked by the caller)").as_ptr();
-    let (mut read, pf, ones) = (*sums, Prefetch::FIXED, _mm256_set1_epi32(-1));
+    let rows = Rows {
+        p: m.row_slice(0).expect("contiguous rows (checked by the caller)").as_ptr(),
+        n: m.rows(),
+        stride: m.row_stride(),
+        k,
+        intervals: (accept[0].as_ptr(), accept[1].as_ptr()),
+    };
+    let (mut read, mut p, ones) = (*sums, rows.p, _mm256_set1_epi32(-1));
     for flag in out.iter_mut() {
         let mut all = ones;
         unrolled!(V, |v| {
-            if v % 2 == 0 {
-                pf.line(p.wrapping_add(v * w));
-            }
-            let x = T::load256(p.add(start(v)));
-            // The intervals as loads beside the comparisons: held in
-            // registers, rows of many vectors would run out of them.
-            let yes = T::inside_lanes256(x, T::load256(low.add(start(v))), T::load256(high.add(start(v))));
-            all = _mm256_and_si256(all, yes);
+            all = _mm256_and_si256(all, rows.test::<V>(p, v).1);
         });
         read.rows_read(p.add(k) as *const u8);
         *flag = u32::from(_mm256_testc_si256(all, ones) == 0);
         // The view's bounds are checked when it is made: row i + 1 starts
         // `stride` values on (wrapping past the last row, never read).
-        p = p.wrapping_add(stride);
+        p = p.wrapping_add(rows.stride);
     }
     *sums = read;
 }

@@ -121,14 +121,15 @@ pub(super) unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
 }
 
 /// `n` rows of `k` values from `p`, `stride` values apart, and the
-/// acceptance intervals (lower and upper bounds, padded to whole vectors).
+/// acceptance intervals (lower and upper bounds, padded to whole vectors);
+/// also the screening kernel's (`medium_avx2_screen`).
 #[derive(Clone, Copy)]
-struct Rows<T> {
-    p: *const T,
-    n: usize,
-    stride: usize,
-    k: usize,
-    intervals: (*const T, *const T),
+pub(super) struct Rows<T> {
+    pub(super) p: *const T,
+    pub(super) n: usize,
+    pub(super) stride: usize,
+    pub(super) k: usize,
+    pub(super) intervals: (*const T, *const T),
 }
 
 impl<T: Prediction> Rows<T> {
@@ -138,7 +139,7 @@ impl<T: Prediction> Rows<T> {
     /// # Safety
     /// AVX2 is available; the rows are readable; `v < V`.
     #[inline(always)]
-    unsafe fn test<const V: usize>(&self, row: *const T, v: usize) -> (T::V256, __m256i) {
+    pub(super) unsafe fn test<const V: usize>(&self, row: *const T, v: usize) -> (T::V256, __m256i) {
         let w = T::W512 / 2;
         let j = if v + 1 < V { v * w } else { self.k - w };
         if v % 2 == 0 {
