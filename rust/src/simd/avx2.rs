@@ -1,8 +1,8 @@
 //! AVX2: rows of more than eight sensors are tested by `long_avx2`, in the
 //! predictions' own type, except that rows of 9-64 sensors stored one
 //! after another are diagnosed by `medium_avx2` (the same work for every
-//! row; rows of up to 32 f32 or 20 f64 sensors by `medium_avx2_short`) and
-//! screened by `medium_avx2_screen`; rows of up to eight by `short_avx2`,
+//! row; rows of up to 32 f32 or 12 f64 sensors by `medium_avx2_short`), and
+//! rows of 9-16 f32 or 9-12 f64 are screened by `medium_avx2_screen`; rows of up to eight by `short_avx2`,
 //! widened to f64. Rows stored back to back whose pattern repeats within
 //! eight vectors of 8 f64 or 16 f32 (rows of 5 and 10 among them), and rows of whole
 //! vectors, two or more to a period (f64 rows of 8, 16, 24 and 32 sensors,
@@ -84,7 +84,7 @@ fn screen_rows<T: Prediction, S: RowsRead>(
     if takes(&m) {
         // SAFETY: as in `diagnose`.
         unsafe { ShortRows4::new(b).screen(m, out) };
-    } else if medium_avx2::vectors::<T>(m.cols()).is_some() && (m.rows() == 0 || m.row_slice(0).is_some()) {
+    } else if medium_avx2_screen::takes::<T>(m.cols()) && (m.rows() == 0 || m.row_slice(0).is_some()) {
         // SAFETY: AVX2 is enabled; the kernel takes the width; rows are contiguous.
         unsafe { medium_avx2_screen::screen(m, b, out, sums) }
     } else {

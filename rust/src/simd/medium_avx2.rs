@@ -7,9 +7,9 @@
 //! expansion; f64 vectors two to a counter, see `pair_lanes`); the same
 //! lanes' sign bits make the row's accepting sensors one 64-bit word, whose
 //! complement's popcount is the violation count and whose lowest bit is the
-//! first rejecting sensor. Rows of up to four f32 and five f64 vectors
-//! (`counts_alone`) take `medium_avx2_short` instead, which counts "falsified
-//! only by" in vector lanes.
+//! first rejecting sensor ("falsified only by" for rows of four and five
+//! f64 vectors: `counts_alone`). Rows of up to four f32 and three f64
+//! vectors take `medium_avx2_short` instead (`medium_avx2_short::takes`).
 //!
 //! Why: `long_avx2`, which took these rows before, counts per bit of the
 //! row's verdict string in byte lanes and reads a row's verdict first after
@@ -87,8 +87,8 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     (t, sums): (&mut Tally, &mut S),
     pass_rows: usize,
 ) {
-    if counts_alone::<T>(V) {
-        // SAFETY: as this function's, and `counts_alone` holds.
+    if medium_avx2_short::takes::<T>(V) {
+        // SAFETY: as this function's, and the short-row kernel takes `V`.
         return unsafe { medium_avx2_short::diagnose_rows::<T, V, S>(m, b, out, (t, sums), pass_rows) };
     }
     let (k, w, accept) = (m.cols(), T::W512 / 2, T::accepted(b));
@@ -100,8 +100,10 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     // twice (the same verdict) and counted from that vector only.
     let start = |v: usize| if v + 1 < V { v * w } else { k - w };
     let row_lanes = u64::MAX >> (64 - k);
-    // "Falsified only by": one add in memory per row at the row's lowest
-    // rejecting sensor (index 64: no rejecting sensor, never counted).
+    // "Falsified only by" in `V` more counters (see `counts_alone`) for
+    // rows of five f64 vectors, else one add in memory per row at the row's
+    // lowest rejecting sensor (index 64: no rejecting sensor, never counted).
+    let alone_in_lanes = counts_alone::<T>(V);
     let mut only_by = [0u64; 65];
     let mut read = *sums;
     let pf = Prefetch::FIXED;
@@ -115,7 +117,7 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     assert!(pass_rows > 0 && pass_rows < 1 << 32);
     for first in (0..m.rows()).step_by(pass_rows) {
         let end = (first + pass_rows).min(m.rows());
-        let mut accepting = [_mm256_setzero_si256(); V];
+        let (mut accepting, mut alone) = ([_mm256_setzero_si256(); V], [_mm256_setzero_si256(); V]);
         let mut invalid = 0u64;
         // f64: the even vector's accepting lanes, until the odd one's.
         let mut even = _mm256_setzero_si256();
@@ -124,6 +126,8 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
             let p = row.as_ptr();
             // Two sums: half the chain of additions.
             let (mut inside, mut sum) = (0u64, [T::zero256(); 2]);
+            // Each vector's accepting lanes, until the row's count is known.
+            let mut yes_lanes = [_mm256_setzero_si256(); V];
             unrolled!(V, |v| {
                 if v % 2 == 0 {
                     // A line ahead every 64 bytes of the row.
@@ -145,12 +149,30 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
                     accepting[v] = count::<T>(accepting[v], yes);
                 }
                 inside |= u64::from(sign_bits::<T>(yes)) << j;
+                yes_lanes[v] = yes;
                 sum[v % 2] = T::add256(sum[v % 2], x);
             });
             read.rows_read(row.as_ptr_range().end as *const u8);
             let rejects = !inside & row_lanes;
             let n = rejects.count_ones();
-            only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
+            if alone_in_lanes {
+                // The row's rejecting lanes if it has one rejecting sensor.
+                let single = _mm256_set1_epi32(-i32::from(n == 1));
+                unrolled!(V, |v| {
+                    let rejecting = _mm256_andnot_si256(yes_lanes[v], single);
+                    if std::mem::size_of::<T>() == 8 {
+                        if v % 2 == 1 || v + 1 == V {
+                            // Lanes of a vector past the row's are never read.
+                            let even = _mm256_andnot_si256(yes_lanes[v - v % 2], single);
+                            alone[v / 2] = _mm256_sub_epi32(alone[v / 2], pair_lanes(even, rejecting));
+                        }
+                    } else {
+                        alone[v] = _mm256_sub_epi32(alone[v], rejecting);
+                    }
+                });
+            } else {
+                only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
+            }
             // The row's sum is NaN iff a value is (or, rarely, infinities
             // cancel). Looked for inline: a call here, even never made, had
             // the counters stored and reloaded around it on every row.
@@ -160,6 +182,11 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
         let rows = (end - first) as u64;
         for (total, c) in t.per_sensor.iter_mut().zip(sensor_counts::<T, V>(&accepting, k)) {
             *total += rows - c;
+        }
+        if alone_in_lanes {
+            for (total, c) in only_by.iter_mut().zip(sensor_counts::<T, V>(&alone, k)) {
+                *total += c;
+            }
         }
         t.invalid += invalid;
     }

@@ -1,5 +1,5 @@
-//! AVX2 screening of rows of 9-64 sensors stored one after another (the
-//! rows `medium_avx2` diagnoses): each row's verdict alone, 1 if any sensor
+//! AVX2 screening of rows of 9-16 f32 or 9-12 f64 sensors stored one
+//! after another ([`takes`]): each row's verdict alone, 1 if any sensor
 //! rejects it. The row's vectors are tested and their accepting lanes
 //! AND-ed, with no branch and no bit extraction until the row's one test;
 //! the last vector ends where the row does (a lane the vector before also
@@ -11,7 +11,8 @@
 //! float64 rows of 9-17 screened 1.22-2.59 times as fast (AMD EPYC Zen 4;
 //! `benches/results-short-rows.txt`, "session 31: the AVX2 rows of 9-32
 //! sensors"); side by side through `falsify` it was not faster for rows of
-//! 17 sensors and more (same section), which is still to be understood.
+//! 17 sensors and more, nor for f64 rows of 13 (session 32), so those keep
+//! `avx2::row_rejected` (see [`takes`]).
 
 use super::checksum::RowsRead;
 use super::medium_avx2::vectors;
@@ -20,11 +21,23 @@ use crate::kernel::{Prediction, SensorBounds};
 use crate::matrix::Matrix;
 use std::arch::x86_64::*;
 
+/// Whether this kernel screens rows of `k` sensors: 9-16 f32 (two
+/// vectors), 9-12 f64 (three). Side by side through `falsify`, against
+/// `avx2::row_rejected` (AMD EPYC Zen 4; `benches/results-short-rows.txt`):
+/// with it float64 rows of 11 ran 1.70-2.32 times as fast and float32 rows
+/// of 9-13 1.08-1.83 ("session 32: which rows the short-row kernels take",
+/// the final code), but float64 rows of 13 0.96-1.00 (same section, 'v1')
+/// and rows of 17-64 0.88-1.03 ("session 31: the AVX2 rows of 9-32
+/// sensors"), so those keep `row_rejected`.
+pub fn takes<T: Prediction>(k: usize) -> bool {
+    k > 8 && k <= if std::mem::size_of::<T>() == 8 { 12 } else { 16 }
+}
+
 /// Writes 1 to `out` for each row of `m` that a sensor rejects, else 0;
 /// tells `sums` each row it has read.
 ///
 /// # Safety
-/// AVX2 is available; `vectors::<T>(m.cols())` is `Some`; rows are
+/// AVX2 is available; `takes(m.cols())`; rows are
 /// contiguous (`m.row_slice` is `Some`).
 #[inline]
 #[target_feature(enable = "avx2")]
@@ -46,7 +59,7 @@ unsafe fn screen_rows<T: Prediction, const V: usize, S: RowsRead>(
     sums: &mut S,
 ) {
     let (k, w, accept) = (m.cols(), T::W512 / 2, T::accepted(b));
-    assert!(vectors::<T>(k) == Some(V) && out.len() == m.rows());
+    assert!(takes::<T>(k) && vectors::<T>(k) == Some(V) && out.len() == m.rows());
     assert!(k >= w && accept[0].len() >= k && accept[1].len() >= k);
     if m.rows() == 0 {
         return;

@@ -1,7 +1,7 @@
 //! AVX2 diagnostics for the shorter rows `medium_avx2` takes: rows of
-//! 9-32 f32 sensors (two to four vectors of eight) and 9-20 f64 sensors
-//! (three to five of four), stored one after another, which count "falsified
-//! only by" in vector lanes (`counts_alone`). The row test is
+//! 9-32 f32 sensors (two to four vectors of eight) and 9-12 f64 sensors
+//! (three vectors of four), stored one after another ([`takes`]), which
+//! count "falsified only by" in vector lanes (`counts_alone`). The row test is
 //! `medium_avx2`'s; the work around it is cut to what short rows can pay:
 //! - the violation count from the accepting lanes packed to bytes: one
 //!   `movemask` and one popcount for up to four vectors (the packing mixes
@@ -41,6 +41,18 @@ use std::arch::x86_64::*;
 /// every sensor accepts all of them, their diagnostics are none.
 const BLOCK_ROWS: usize = 128;
 
+/// Whether this kernel diagnoses rows of `v` vectors: up to four f32
+/// (rows of 9-32 sensors) or three f64 (9-12). Rows of four and five f64
+/// vectors (13-20 sensors) count "falsified only by" in lanes in
+/// `medium_avx2`'s loop: side by side through `falsify`, with this kernel
+/// float64 rows of 17 ran 0.90-0.92 times as fast with diagnostics
+/// (AMD EPYC Zen 4; `benches/results-short-rows.txt`, "session 31: the AVX2
+/// rows of 9-32 sensors"), and rows of 13 0.92-0.97 in the worst case, in
+/// all five runs ("session 32: which rows the short-row kernels take", 'v1').
+pub(super) fn takes<T: Prediction>(v: usize) -> bool {
+    counts_alone::<T>(v) && v <= if std::mem::size_of::<T>() == 8 { 3 } else { 4 }
+}
+
 /// Writes the rejecting-sensor count of every row of `m` (rows of `V`
 /// vectors) to `out` and adds the rows' diagnostics to `t`, the counters
 /// flushed every `pass_rows` rows or 65,535, whichever is fewer; tells
@@ -48,7 +60,7 @@ const BLOCK_ROWS: usize = 128;
 ///
 /// # Safety
 /// As `medium_avx2::diagnose_in_passes`; `vectors::<T>(m.cols()) ==
-/// Some(V)` and `counts_alone::<T>(V)`.
+/// Some(V)` and `takes::<T>(V)`.
 #[inline]
 #[target_feature(enable = "avx2,popcnt")]
 pub(super) unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
@@ -59,7 +71,7 @@ pub(super) unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     pass_rows: usize,
 ) {
     let (k, w, accept) = (m.cols(), T::W512 / 2, T::accepted(b));
-    assert!(vectors::<T>(k) == Some(V) && counts_alone::<T>(V) && V <= 8);
+    assert!(vectors::<T>(k) == Some(V) && takes::<T>(V));
     assert!(out.len() == m.rows() && t.per_sensor.len() == k);
     assert!(k >= w && accept[0].len() >= k && accept[1].len() >= k);
     let mut read = *sums;

@@ -15,7 +15,7 @@ fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, pass_rows: usize, wh
     let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
     diagnose_with(Isa::Portable, m, b, &mut want, &mut tw);
     let (mut got, mut t) = (vec![0u32; rows], Tally::zeros(k));
-    assert!(super::counts_alone::<T>(vectors::<T>(k).unwrap()), "{what}: a short-row width");
+    assert!(super::takes::<T>(vectors::<T>(k).unwrap()), "{what}: a short-row width");
     // SAFETY: AVX2 and POPCNT are available (checked by the callers), rows
     // are contiguous, `vectors` gave `V`, and it counts "falsified only by" in lanes.
     by_vectors!(T, k, |V| unsafe { diagnose_rows::<T, V, NoSums>(m, b, &mut got, (&mut t, &mut NoSums), pass_rows) });
@@ -24,9 +24,9 @@ fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, pass_rows: usize, wh
 }
 
 /// Widths of every vector count the kernel takes: f32 rows of 9, 17 and 31
-/// (two to four vectors), f64 rows of 9, 13 and 18 (three to five).
+/// (two to four vectors), f64 rows of 9, 11 and 12 (three).
 const F32_WIDTHS: [usize; 3] = [9, 17, 31];
-const F64_WIDTHS: [usize; 3] = [9, 13, 18];
+const F64_WIDTHS: [usize; 3] = [9, 11, 12];
 
 /// 140,000 rows, in one pass of the kernel's own length (65,535 rows): sensor
 /// 0 rejects nine rows in ten alone (its "falsified only by" count, the
