@@ -93,6 +93,15 @@ def test_why_the_kernels_take_fewer_rows():
     assert f"but float64 rows of 13 {c['f64_13_scr']}" in screen
 
 
+def test_the_larger_buffer_not_kept():
+    rows = _runs("tried and not kept, run 1", "tried and not kept, run 2")
+    assert len(rows) == 2 * 5 * 2 * 2
+    worst = _span(r[5] for r in rows if r[2] == "worst" and r[0] < 50)
+    typical = _span(r[5] for r in rows if r[2] == "typical" and r[0] < 50)
+    assert (f"2,048 rows at a time rather than 256 read {worst} in the worst case and {typical} in the typical "
+            f"one on rows of 9-25 sensors with diagnostics") in PAGE
+
+
 def test_session_31_figures_the_docs_repeat():
     s31 = _section_of("session 31: the AVX2 rows of 9-32 sensors", SHORT_ROWS)
     side = [m for run in s31.split("--- through falsify, side by side")[1:]
