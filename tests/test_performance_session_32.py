@@ -111,3 +111,39 @@ def test_session_31_figures_the_docs_repeat():
     assert f"float64 rows of 17 ran {f64_17} times as fast with diagnostics" in _doc("medium_avx2_short.rs")
     assert f"rows of 17-64 {longer}" in _doc("medium_avx2_screen.rs")
     assert f"(with the new kernel they read {longer} in session 31)" in PAGE
+
+
+ALONE = re.compile(r"^Avx2 (f32|f64) +(\d+) (\w+) \|[^\n]*\| new ([\d.]+)/([\d.]+)$", re.M)
+
+
+def _alone(heading: str) -> list[tuple[str, int, str, float]]:
+    part = SECTION.split("--- " + heading)[1].split("\n--- ")[0]
+    return [(m[1], int(m[2]), m[3], float(m[4])) for m in ALONE.finditer(part)]
+
+
+def test_the_counters_by_one_or():
+    alone = _alone("kept: the short-row kernel's counters by one OR") + _alone("kept: the counters by one OR, alone")
+    assert len(alone) == 7 * 3 + 5 * 3
+    others = _span(r for _, _, case, r in alone if case != "worst")
+    worst = _span(r for _, _, case, r in alone if case == "worst")
+    side = _runs("kept: the counters by one OR, side by side through falsify, run 1",
+                 "kept: the counters by one OR, side by side through falsify, run 2")
+    assert len(side) == 2 * 5 * 2 * 2
+    takes = lambda n, d: d == "f32" or n <= 12  # noqa: E731  (the short-row kernel's rows)
+    typical = _span(r[5] for r in side if takes(r[0], r[1]) and r[2] == "typical")
+    worst_side = _span(r[5] for r in side if takes(r[0], r[1]) and r[2] == "worst")
+    controls = _span(r[5] for r in side if not takes(r[0], r[1]))
+    assert (f"rows with diagnostics that are not all candidates ran {others} times as fast and the worst case "
+            f"{worst}") in " ".join(PAGE.split())
+    assert (f"the rows this kernel takes read {typical} in the typical case and {worst_side} in the worst, "
+            f"float64 rows of 13-25 (controls) {controls}") in " ".join(PAGE.split())
+    assert f"its rows read {typical} times as fast in the typical case and {worst_side} in the worst" in \
+        " ".join(README.split())
+    assert f"the rows not all candidates ran {others} times as fast" in _doc("medium_avx2_short.rs")
+
+
+def test_the_scalar_counters_not_kept():
+    alone = _alone('tried and not kept: the short-row kernel\'s "falsified only by" in scalar counters')
+    assert len(alone) == 7 * 3
+    others = _span(r for _, _, case, r in alone if case != "worst")
+    assert f"rows that are not all candidates ran {others} times as fast (same section" in " ".join(PAGE.split())

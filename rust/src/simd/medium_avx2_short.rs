@@ -9,10 +9,13 @@
 //!   sensor is needed only for "falsified only by", counted in lanes);
 //! - each sensor's acceptances and "falsified only by" in the two 16-bit
 //!   halves of one 32-bit lane, so half the counter registers, flushed
-//!   every 65,535 rows; the intervals read from memory (a load beside each
-//!   comparison), so the counters keep AVX2's sixteen registers: held in
-//!   registers, the intervals pushed counters to the stack, stored and
-//!   reloaded on every row;
+//!   every 65,535 rows, and both counted by one OR and one subtraction a
+//!   vector (the row's single-rejection halves loaded from a table, not
+//!   broadcast: alone on a core, with diagnostics, the rows not all
+//!   candidates ran 0.95-1.23 times as fast, session 32); the intervals
+//!   read from memory (a load beside each comparison), so the counters
+//!   keep AVX2's sixteen registers: held in registers, the intervals pushed
+//!   counters to the stack, stored and reloaded on every row;
 //! - NaN looked for once every [`BLOCK_ROWS`] rows, not on every row;
 //! - the rows walked by a pointer, with no bounds check a row (the view's
 //!   bounds are checked when it is made);
@@ -165,6 +168,12 @@ impl<T: Prediction> Rows<T> {
     }
 }
 
+/// The high halves of a row's counters' lanes: all ones if the row has one
+/// rejecting sensor (index 1), else zero (index 0).
+#[repr(align(32))]
+struct SingleHalves([[u32; 8]; 2]);
+static SINGLE: SingleHalves = SingleHalves([[0; 8], [0xFFFF_0000; 8]]);
+
 /// Diagnoses `rows` into `out` (their rejecting-sensor counts) and the
 /// counters `both`; tells `read` each row read; whether the rows' values
 /// sum to NaN. Not inlined into [`diagnose_rows`], whose blocks of
@@ -212,7 +221,10 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
             zeros += (!(_mm256_movemask_epi8(_mm256_packs_epi16(words.0, words.1)) as u32)).count_ones();
         }
         let n = zeros / per_lane as u32;
-        let single = _mm256_set1_epi32(-i32::from(n == 1));
+        // 0xFFFF0000 in every lane if the row has one rejecting sensor, else
+        // zero: loaded from a table (a load port) rather than broadcast from
+        // a register (two vector operations a row).
+        let single = _mm256_load_si256(SINGLE.0[usize::from(n == 1)].as_ptr() as *const __m256i);
         unrolled!(V, |v| {
             let c = if f64_lanes { v / 2 } else { v };
             if !f64_lanes || v % 2 == 1 || v + 1 == V {
@@ -222,8 +234,10 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
                 } else {
                     yes[v]
                 };
-                let alone = _mm256_andnot_si256(accepting, single);
-                counters[c] = _mm256_sub_epi16(counters[c], _mm256_blend_epi16::<0b1010_1010>(accepting, alone));
+                // An accepting lane (all ones) adds one to the lane's low
+                // half, a rejecting lane of a single-rejection row one to its
+                // high half (0xFFFF0000); the two never meet in a lane.
+                counters[c] = _mm256_sub_epi32(counters[c], _mm256_or_si256(accepting, single));
             }
         });
         *n_out = n;
