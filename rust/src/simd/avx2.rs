@@ -2,8 +2,8 @@
 //! predictions' own type, except that rows of 9-64 sensors stored one
 //! after another are diagnosed by `medium_avx2` (the same work for every
 //! row; rows of up to 32 f32 or 12 f64 sensors by `medium_avx2_short`), and
-//! rows of 9-16 f32 or 9-12 f64 are screened by `medium_avx2_screen`; rows of up to eight by `short_avx2`,
-//! widened to f64. Rows stored back to back whose pattern repeats within
+//! rows of 9-16 f32 or 9-12 f64 are screened by `medium_avx2_screen`; rows
+//! of up to eight by `short_avx2`, widened to f64. Rows stored back to back whose pattern repeats within
 //! eight vectors of 8 f64 or 16 f32 (rows of 5 and 10 among them), and rows of whole
 //! vectors, two or more to a period (f64 rows of 8, 16, 24 and 32 sensors,
 //! f32 of 16, 32 and 48: `Period::whole_rows`), take the periodic kernel instead

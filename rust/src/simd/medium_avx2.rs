@@ -101,7 +101,7 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     let start = |v: usize| if v + 1 < V { v * w } else { k - w };
     let row_lanes = u64::MAX >> (64 - k);
     // "Falsified only by" in `V` more counters (see `counts_alone`) for
-    // rows of five f64 vectors, else one add in memory per row at the row's
+    // rows of four and five f64 vectors, else one add in memory per row at the row's
     // lowest rejecting sensor (index 64: no rejecting sensor, never counted).
     let alone_in_lanes = counts_alone::<T>(V);
     let mut only_by = [0u64; 65];

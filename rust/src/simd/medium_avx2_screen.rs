@@ -37,7 +37,7 @@ pub fn takes<T: Prediction>(k: usize) -> bool {
 /// tells `sums` each row it has read.
 ///
 /// # Safety
-/// AVX2 is available; `takes(m.cols())`; rows are
+/// AVX2 is available; `takes::<T>(m.cols())`; rows are
 /// contiguous (`m.row_slice` is `Some`).
 #[inline]
 #[target_feature(enable = "avx2")]

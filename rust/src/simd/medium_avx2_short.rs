@@ -168,8 +168,8 @@ impl<T: Prediction> Rows<T> {
     }
 }
 
-/// The high halves of a row's counters' lanes: all ones if the row has one
-/// rejecting sensor (index 1), else zero (index 0).
+/// What a row adds to its rejecting lanes' high halves: 0xFFFF0000 in every
+/// lane if the row has one rejecting sensor (index 1), else zero (index 0).
 #[repr(align(32))]
 struct SingleHalves([[u32; 8]; 2]);
 static SINGLE: SingleHalves = SingleHalves([[0; 8], [0xFFFF_0000; 8]]);
