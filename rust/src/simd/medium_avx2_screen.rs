@@ -42,8 +42,10 @@ pub fn takes<T: Prediction>(k: usize) -> bool {
 #[inline]
 #[target_feature(enable = "avx2")]
 pub unsafe fn screen<T: Prediction, S: RowsRead>(m: Matrix<'_, T>, b: &SensorBounds, out: &mut [u32], sums: &mut S) {
-    // SAFETY: as this function's, `vectors` gave `V`.
-    by_vectors!(T, m.cols(), |V| unsafe { screen_rows::<T, V, S>(m, b, out, sums) })
+    assert!(takes::<T>(m.cols()), "rows of 9-16 f32 or 9-12 f64 sensors, got {}", m.cols());
+    // Only the vector counts of the widths it takes (f32 two, f64 three)
+    // get a compiled loop. SAFETY: as this function's, `vectors` gave `V`.
+    by_vectors!(@ T, m.cols(), V, unsafe { screen_rows::<T, V, S>(m, b, out, sums) }, 2 3)
 }
 
 /// [`screen`] for rows of `V` vectors.

@@ -1,7 +1,8 @@
 //! AVX2 diagnostics for the shorter rows `medium_avx2` takes: rows of
 //! 9-32 f32 sensors (two to four vectors of eight) and 9-12 f64 sensors
 //! (three vectors of four), stored one after another ([`takes`]), which
-//! count "falsified only by" in vector lanes (`counts_alone`). The row test is
+//! count "falsified only by" in vector lanes (as `medium_avx2::counts_alone`
+//! says for its rows of four and five f64 vectors). The row test is
 //! `medium_avx2`'s; the work around it is cut to what short rows can pay:
 //! - the violation count from the accepting lanes packed to bytes: one
 //!   `movemask` and one popcount for up to four vectors (the packing mixes
@@ -31,7 +32,7 @@
 //! "session 31: the AVX2 rows of 9-32 sensors").
 
 use super::checksum::RowsRead;
-use super::medium_avx2::{counts_alone, pair_lanes, sensor_counts, vectors};
+use super::medium_avx2::{pair_lanes, sensor_counts, vectors};
 use super::prefetch::Prefetch;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -53,7 +54,7 @@ const BLOCK_ROWS: usize = 128;
 /// rows of 9-32 sensors"), and rows of 13 0.92-0.97 in the worst case, in
 /// all five runs ("session 32: which rows the short-row kernels take", 'v1').
 pub(super) fn takes<T: Prediction>(v: usize) -> bool {
-    counts_alone::<T>(v) && v <= if std::mem::size_of::<T>() == 8 { 3 } else { 4 }
+    v <= if std::mem::size_of::<T>() == 8 { 3 } else { 4 }
 }
 
 /// Writes the rejecting-sensor count of every row of `m` (rows of `V`
