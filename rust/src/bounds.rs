@@ -37,8 +37,9 @@ pub struct SensorBounds {
 
 /// Rows of `k` sensors stored back to back repeat their sensor pattern every
 /// `lcm(k, w)` values: `vectors` vectors of `w` holding `rows` rows, whose
-/// verdict bits form one string of `lcm(k, w)` bits (row `r` owns bits
-/// `r*k .. r*k + k`).
+/// verdict bits form one string of `vectors * w` bits (row `r` owns bits
+/// `r*k .. r*k + k`). A period may be several repeats of the pattern (see
+/// [`Period::new`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Period {
     /// Vectors per period.
@@ -59,11 +60,26 @@ pub struct Period {
 /// and so reloads some of them from the stack).
 pub const MAX_PERIOD_VECTORS: usize = 8;
 
+/// Most vectors in a period whose pattern is repeated ([`Period::new`]):
+/// periods of eight f64 vectors (rows of 4 sensors) were screened through
+/// memory at 0.93-0.95 of the speed of one-vector periods, though twice as
+/// fast from cache (`benches/results-short-rows.txt`, "session 33").
+const MAX_REPEATED_VECTORS: usize = 6;
+
 impl Period {
     /// The period of rows of `k` sensors in vectors of `w` values, if the
     /// periodic kernel takes them: more than one row per period (else a row
     /// is read as whole vectors already), at most [`MAX_PERIOD_VECTORS`]
     /// vectors and 128 verdict bits.
+    ///
+    /// A pattern of at most 32 bits (f32 rows of 1, 2, 4 and 8 sensors; f64
+    /// rows of 1-4, 6 and 12) is repeated as often as a `u64` string, eight
+    /// vectors and 32 rows hold: the kernel's work per period (the field
+    /// arithmetic, the byte counts, the candidate bits) is then shared by
+    /// more rows. Typical rows with diagnostics, alone on one core (`cargo
+    /// bench --bench core_kernels`, Zen 4): f64 rows of 2 and 4 and f32 rows
+    /// of 2, 4 and 8 ran 2.64-3.14 times as fast at AVX-512 as with one
+    /// vector a period (`benches/results-short-rows.txt`, "session 33").
     pub fn new(k: usize, w: usize, proper: bool) -> Option<Period> {
         fn gcd(a: usize, b: usize) -> usize {
             if b == 0 {
@@ -80,7 +96,25 @@ impl Period {
         if lcm / w > MAX_PERIOD_VECTORS || lcm > 128 || k >= 64 {
             return None;
         }
-        Some(Period::of(k, lcm / w, lcm / k, proper))
+        let repeats = if lcm <= 32 {
+            (64 / lcm).min(MAX_REPEATED_VECTORS / (lcm / w)).min(32 / (lcm / k))
+        } else {
+            1
+        };
+        Some(Period::of(k, repeats * lcm / w, repeats * lcm / k, proper))
+    }
+
+    /// This period as one pattern, without the repeats of [`Period::new`]
+    /// (periods of rows of whole vectors are kept): with them, AVX2 screened
+    /// rows of 4 sensors through memory at 0.94-0.98 of the speed without
+    /// (`benches/results-short-rows.txt`, "session 33").
+    pub fn unrepeated(self, k: usize, w: usize) -> Period {
+        if k == 0 || k.is_multiple_of(w) {
+            return self;
+        }
+        // lcm(k, w): the period is a multiple of it.
+        let lcm = (1..=self.vectors).map(|v| v * w).find(|n| n.is_multiple_of(k)).unwrap_or(self.vectors * w);
+        Period::of(k, lcm / w, lcm / k, self.proper)
     }
 
     /// For rows of whole vectors (`k` a multiple of `w`, below 64), a period

@@ -101,16 +101,24 @@ fn screen_rows<T: Prediction, S: RowsRead>(
 
 /// The rows of `m` that the periodic kernel takes (whole periods of rows
 /// stored back to back), their values and the kernel; the rest of `m` after
-/// them. None where `pext` is slow (see [`fast_pext`]).
+/// them. None where `pext` is slow (see [`fast_pext`]). For `screening`,
+/// the period without repeats (`Period::unrepeated`).
 #[inline]
 #[target_feature(enable = "avx2")]
 fn periodic<'a, T: Prediction>(
     m: Matrix<'a, T>,
     b: &SensorBounds,
+    screening: bool,
 ) -> Option<(Periodic<T, Avx2Vectors>, &'a [T], usize)> {
     let data = m.packed_rows().filter(|_| periodic_takes(m, b))?;
     // SAFETY: AVX2 is enabled; a period takes the width.
-    let kernel = unsafe { Periodic::<T, Avx2Vectors>::new(b) };
+    let kernel = unsafe {
+        if screening {
+            Periodic::<T, Avx2Vectors>::unrepeated(b)
+        } else {
+            Periodic::<T, Avx2Vectors>::new(b)
+        }
+    };
     let whole = m.rows() - m.rows() % kernel.rows();
     Some((kernel, data, whole))
 }
@@ -162,7 +170,7 @@ fn diagnose_bits_adding<T: Prediction, V: SumVectors<T, Avx2Vectors>, R: RowsRea
     sink: &mut BitSink,
     (t, vectors, rows): (&mut Tally, &mut V, &mut R),
 ) -> usize {
-    let Some((kernel, data, whole)) = periodic(m, b) else {
+    let Some((kernel, data, whole)) = periodic(m, b, false) else {
         via_counts(m.rows(), counts, sink, |r0, r1, out| {
             diagnose_rows(m.slice_rows(r0, r1), b, out, (&mut *t, &mut *rows))
         });
@@ -239,7 +247,7 @@ fn screen_bits_adding<T: Prediction, V: SumVectors<T, Avx2Vectors>, R: RowsRead>
     (vectors, rows): (&mut V, &mut R),
 ) -> usize {
     let mut start = 0;
-    if let Some((kernel, data, whole)) = periodic(m, b) {
+    if let Some((kernel, data, whole)) = periodic(m, b, true) {
         // SAFETY: as in `diagnose_bits_adding`.
         unsafe { kernel.screen(data, whole / kernel.rows(), sink, vectors) };
         start = whole;

@@ -138,6 +138,18 @@ impl<T: Prediction> Periodic<T, Avx2Vectors> {
         )
     }
 
+    /// [`Self::new`] without the repeats of `Period::new` (see
+    /// `Period::unrepeated`): the screening loop's period.
+    ///
+    /// # Safety
+    /// As [`Self::new`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn unrepeated(b: &SensorBounds) -> Self {
+        let period = T::period(b).or(T::whole_period(b)).expect("a period this kernel takes");
+        Self::build(b, period.unrepeated(b.len(), T::W512))
+    }
+
     /// See `Periodic::screen_any`.
     ///
     /// # Safety

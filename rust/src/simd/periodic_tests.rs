@@ -10,7 +10,34 @@ fn periods_of_short_rows() {
     assert_eq!(period(10, 16), Some((5, 8)));
     assert_eq!(period(5, 8), Some((5, 8)));
     assert_eq!(period(10, 8), Some((5, 4)));
-    assert_eq!(period(3, 8), Some((3, 8)));
+    // Patterns of at most 32 bits repeated as often as a u64 string, six
+    // vectors (`MAX_REPEATED_VECTORS`) and 32 rows allow.
+    assert_eq!(period(3, 8), Some((6, 16)));
+    assert_eq!(period(6, 8), Some((6, 8)));
+    assert_eq!(period(12, 8), Some((6, 4)));
+    assert_eq!(period(4, 8), Some((6, 12)));
+    assert_eq!(period(2, 8), Some((6, 24)));
+    assert_eq!(period(1, 8), Some((4, 32)));
+    assert_eq!(period(8, 16), Some((4, 8)));
+    assert_eq!(period(4, 16), Some((4, 16)));
+    assert_eq!(period(2, 16), Some((4, 32)));
+    assert_eq!(period(1, 16), Some((2, 32)));
+    // Without the repeats (AVX2 screening): one pattern; whole rows kept.
+    let once = |k, w| Period::new(k, w, true).map(|p| (p.unrepeated(k, w).vectors, p.unrepeated(k, w).rows));
+    assert_eq!(once(4, 8), Some((1, 2)));
+    assert_eq!(once(12, 8), Some((3, 2)));
+    assert_eq!(once(8, 16), Some((1, 2)));
+    assert_eq!(once(1, 16), Some((1, 16)));
+    assert_eq!(once(5, 16), Some((5, 16)));
+    let p = Period::whole_rows(16, 8, true).unwrap();
+    assert_eq!(p.unrepeated(16, 8), p);
+    let (p, q) = (Period::new(3, 8, true).unwrap(), Period::new(3, 8, true).unwrap().unrepeated(3, 8));
+    assert_eq!((q.low_bits, q.top_bits), Period::fields(3, 8));
+    assert_eq!(p.low_bits & 0xFF_FFFF, q.low_bits);
+    // Longer patterns are not repeated: 48 bits, and 40 (a repeat is 80).
+    assert_eq!(period(6, 16), Some((3, 8)));
+    assert_eq!(period(12, 16), Some((3, 4)));
+    assert_eq!(period(7, 8), Some((7, 8)));
     // Whole vectors per row, or a period too long: other kernels.
     assert_eq!(period(16, 8), None);
     assert_eq!(period(16, 16), None);
