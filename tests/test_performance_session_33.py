@@ -91,3 +91,27 @@ def test_why_six_vectors_and_avx2_screening_unrepeated():
             f"speed; four vectors ('B') screened float64 rows of 2 and 4 at {c['b_scr']} of the speed of eight but "
             f"diagnosed typical float64 rows of 3 and 12 at {c['b_diag']} of that of six") in PAGE
     assert f"AVX2 screened rows of 4 at {c['c_scr']} of the session start's speed" in PAGE
+
+
+def _intervals_from_memory() -> dict[str, str]:
+    kept = _runs("'M4f32' through falsify, run 1", "'M4f32' through falsify, run 2")
+    assert len(kept) == 2 * 6 * 2 * 2
+    gain = [r for r in kept if r[1] == "f32" and r[2] == "typical" and r[0] in (4, 6, 8, 12)]
+    both = _alone("'M4' (periods of up to four vectors, both dtypes), the kernels alone, 3 rounds")
+    f64_alone = [r[4] for r in both if r[0] == "Avx2" and r[1] == "f64" and r[2] in (3, 4, 5, 6)]
+    return {
+        "gain": _span(r[5] for r in gain),
+        "rest": _span(r[5] for r in kept if r not in gain),
+        "f64_alone": _span(f64_alone),
+    }
+
+
+def test_the_intervals_read_from_memory():
+    c = _intervals_from_memory()
+    doc = " ".join((ROOT / "rust" / "src" / "simd" / "periodic.rs").read_text().replace("///", "").split())
+    assert f"and 12 ran {c['gain']} times as fast through `falsify` with it" in doc
+    assert f"did not change, ran {c['f64_alone']} times as fast alone" in doc
+    assert (f"typical float32 rows of 4, 6, 8 and 12 sensors with diagnostics ran {c['gain']} times as fast "
+            f"(two runs; every other case {c['rest']},") in PAGE
+    assert f"float64 periods of five and six vectors, whose loops did not change, ran {c['f64_alone']}" in PAGE
+    assert f"AVX2's typical float32 rows of 4-12 sensors with diagnostics {c['gain']} times as fast" in README

@@ -96,6 +96,18 @@ pub trait Vectors<T: Prediction> {
     unsafe fn nan(x: Self::V) -> u32;
     /// `a + b` lane by lane. # Safety: as `load`.
     unsafe fn add(a: Self::V, b: Self::V) -> Self::V;
+    /// Whether the diagnostics loop of float32 periods of up to four vectors
+    /// reads the intervals from memory (as compare operands) each period
+    /// rather than holding them in registers: AVX2's sixteen registers held
+    /// the intervals (4 a vector of the period) and spilled the byte counts,
+    /// whose store and reload each period were a chain through memory
+    /// (`perf annotate`, float32 rows of 6). Typical float32 rows of 4, 6, 8
+    /// and 12 ran 1.03-1.17 times as fast through `falsify` with it. With it
+    /// for float64 too, float64 periods of five and six vectors, whose loops
+    /// did not change, ran 0.86-0.97 times as fast alone (the function's
+    /// other arms did), so it is float32's only (`benches/results-short-rows.txt`,
+    /// "session 33").
+    const INTERVALS_FROM_MEMORY: bool = false;
     /// The level's prefetch, taken once a call and held in a register by
     /// the period loops: AVX-512's as chosen for this CPU (`Prefetch::now`),
     /// AVX2's a constant (`Prefetch::FIXED`; a chosen one slowed the AVX2

@@ -27,6 +27,7 @@ pub struct Avx2Vectors;
 impl<T: Prediction> Vectors<T> for Avx2Vectors {
     type V = [T::V256; 2];
     type Counts = ByteTally256;
+    const INTERVALS_FROM_MEMORY: bool = true;
     #[inline(always)]
     fn prefetch() -> Prefetch {
         Prefetch::FIXED

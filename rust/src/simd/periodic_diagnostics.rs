@@ -111,14 +111,18 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             // there each vector's mask is negated (section "session 27: u128
             // strings" of `benches/results-short-rows.txt`).
             let mut masks = [0u32; P];
+            // `black_box`: the intervals are loaded anew each period (see
+            // `Vectors::INTERVALS_FROM_MEMORY`), not hoisted into registers.
+            let from_memory = L::INTERVALS_FROM_MEMORY && P <= 4 && T::W512 == 16;
+            let iv: &Self = if from_memory { std::hint::black_box(self) } else { self };
             for (v, r) in masks.iter_mut().enumerate() {
                 pf.line(p.add(v * w));
                 let x = L::load(p.add(v * w));
                 sums.add(x);
                 *r = if B::BITS < 128 {
-                    L::inside(x, self.low[v], self.high[v])
+                    L::inside(x, iv.low[v], iv.high[v])
                 } else {
-                    L::outside(x, self.low[v], self.high[v])
+                    L::outside(x, iv.low[v], iv.high[v])
                 };
             }
             let bits = if B::BITS < 128 { !B::string(&masks, w) & every } else { B::string(&masks, w) };
