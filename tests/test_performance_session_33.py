@@ -115,3 +115,33 @@ def test_the_intervals_read_from_memory():
             f"(two runs; every other case {c['rest']},") in PAGE
     assert f"float64 periods of five and six vectors, whose loops did not change, ran {c['f64_alone']}" in PAGE
     assert f"AVX2's typical float32 rows of 4-12 sensors with diagnostics {c['gain']} times as fast" in README
+
+
+SHORT_ALONE = re.compile(r"^(Avx2|Avx512) (f32|f64) (\d+) (\w+) (?:[\d.]+ )?([\d.]+)/([\d.]+)$", re.M)
+
+
+def _split_56() -> dict[str, str]:
+    every = [(m[1], m[2], int(m[3]), m[4], float(m[5]))
+             for m in SHORT_ALONE.finditer(_part("then: 112-bit strings (float32 rows of 7 and 14) split at bit 56"))]
+    typical = lambda level: [r[4] for r in every  # noqa: E731
+                             if r[0] == level and r[1] == "f32" and r[2] in (7, 14) and r[3] == "typical"]
+    kept = _runs("'S56' at AVX2 only through falsify, AVX2, run 1", "'S56' at AVX2 only through falsify, AVX-512, run 1",
+                 "'S56' at AVX2 only through falsify, AVX2, run 2", "'S56' at AVX2 only through falsify, AVX-512, run 2")
+    assert len(kept) == 4 * 3 * 2 * 2
+    avx2 = _runs("'S56' at AVX2 only through falsify, AVX2, run 1", "'S56' at AVX2 only through falsify, AVX2, run 2")
+    gain = [r for r in avx2 if r[1] == "f32" and r[2] == "typical" and r[0] in (7, 14)]
+    return {
+        "alone2": _span(typical("Avx2")),
+        "alone512": _span(typical("Avx512")),
+        "gain": _span(r[5] for r in gain),
+        "rest": _span(r[5] for r in kept if r not in gain),
+    }
+
+
+def test_rows_of_7_and_14_split_at_56():
+    c = _split_56()
+    doc = " ".join((ROOT / "rust" / "src" / "simd" / "periodic.rs").read_text().replace("///", "").split())
+    assert f"typical rows ran {c['alone2']} times as fast at AVX2 and {c['alone512']} at AVX-512" in doc
+    assert (f"typical float32 rows of 7 and 14 sensors with diagnostics ran {c['gain']} times as fast at AVX2 "
+            f"(two runs; every other case, at both levels, {c['rest']})") in PAGE
+    assert f"AVX2's typical float32 rows of 7 and 14 with diagnostics {c['gain']} times as fast" in README

@@ -29,7 +29,9 @@
 //!   20 (80-bit periods) keep their string as two words split at a row
 //!   boundary ([`super::split_string::Split60`]): the field arithmetic then
 //!   has no carry between words (`benches/results-short-rows.txt`, "session
-//!   21"), and runs on both words at once in a 128-bit vector register.
+//!   21"), and runs on both words at once in a 128-bit vector register;
+//!   at AVX2 so do f32 rows of 7 and 14 (112 bits, split at bit 56:
+//!   [`Vectors::SPLIT_56`]).
 //! - The lanes are compared as "inside" and the string negated once in a
 //!   general register (`u128` strings excepted), and on AVX-512 the two
 //!   strings' short second words (outside, and "only by") are counted as
@@ -108,6 +110,12 @@ pub trait Vectors<T: Prediction> {
     /// other arms did), so it is float32's only (`benches/results-short-rows.txt`,
     /// "session 33").
     const INTERVALS_FROM_MEMORY: bool = false;
+    /// Whether the diagnostics split the 112-bit strings of float32 rows of
+    /// 7 and 14 sensors at bit 56 ([`super::split_string::Split56`]) rather
+    /// than keeping a `u128`: alone on one core, typical rows ran 1.09-1.25
+    /// times as fast at AVX2 and 0.95-0.99 at AVX-512 (`cargo bench --bench
+    /// core_kernels`; `benches/results-short-rows.txt`, "session 33").
+    const SPLIT_56: bool = false;
     /// The level's prefetch, taken once a call and held in a register by
     /// the period loops: AVX-512's as chosen for this CPU (`Prefetch::now`),
     /// AVX2's a constant (`Prefetch::FIXED`; a chosen one slowed the AVX2

@@ -28,6 +28,7 @@ impl<T: Prediction> Vectors<T> for Avx2Vectors {
     type V = [T::V256; 2];
     type Counts = ByteTally256;
     const INTERVALS_FROM_MEMORY: bool = true;
+    const SPLIT_56: bool = true;
     #[inline(always)]
     fn prefetch() -> Prefetch {
         Prefetch::FIXED

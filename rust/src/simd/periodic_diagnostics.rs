@@ -4,7 +4,7 @@
 
 use super::super::bit_string::{row_fields, spread, BitCounts, Bits};
 use super::super::prefetch::Prefetch;
-use super::super::split_string::Split60;
+use super::super::split_string::{Split56, Split60};
 use super::{NoSums, Periodic, SumVectors, Vectors};
 use crate::candidates::BitSink;
 use crate::kernel::{Period, Prediction, Tally};
@@ -47,7 +47,14 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
                 _ => self.diagnose_p::<5, 0, COUNTS, S>(data, periods, counts, sink, t),
             },
             6 => self.diagnose_p::<6, 0, COUNTS, S>(data, periods, counts, sink, t),
-            7 => self.diagnose_p::<7, 0, COUNTS, S>(data, periods, counts, sink, t),
+            // Rows of 7 and 14: float32 periods of 112 bits, split at bit 56
+            // where the level does (`Vectors::SPLIT_56`); field shifts by a
+            // constant (float64 periods of 56 bits) at every level.
+            7 => match self.k {
+                7 => self.diagnose_p::<7, 7, COUNTS, S>(data, periods, counts, sink, t),
+                14 => self.diagnose_p::<7, 14, COUNTS, S>(data, periods, counts, sink, t),
+                _ => self.diagnose_p::<7, 0, COUNTS, S>(data, periods, counts, sink, t),
+            },
             _ => self.diagnose_p::<8, 0, COUNTS, S>(data, periods, counts, sink, t),
         }
         (*out, *sums) = (local, s);
@@ -68,6 +75,8 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             self.diagnose_pb::<u64, P, K, COUNTS, S>(data, periods, counts, sink, t)
         } else if K != 0 && 60 % K == 0 && P * T::W512 - 60 <= 64 {
             self.diagnose_pb::<Split60, P, K, COUNTS, S>(data, periods, counts, sink, t)
+        } else if L::SPLIT_56 && K != 0 && 56 % K == 0 && P * T::W512 - 56 <= 64 {
+            self.diagnose_pb::<Split56, P, K, COUNTS, S>(data, periods, counts, sink, t)
         } else {
             self.diagnose_pb::<u128, P, K, COUNTS, S>(data, periods, counts, sink, t)
         }

@@ -1,6 +1,6 @@
 //! A period's verdict string split at a row boundary, for the periodic
 //! kernel's diagnostics of float32 rows of 5, 10 and 20 sensors (80-bit
-//! periods): see [`Split60`].
+//! periods, [`Split60`]) and of 7 and 14 (112-bit periods, [`Split56`]).
 
 use super::bit_string::Bits;
 use std::arch::x86_64::*;
@@ -14,27 +14,30 @@ use std::arch::x86_64::*;
 /// field only: the string itself is built as a `u128` and split
 /// ([`Bits::string`] below).
 #[derive(Clone, Copy, PartialEq)]
-pub struct Split60 {
+pub struct Split<const SPLIT: u32> {
     lo: u64,
     hi: u64,
 }
 
-const SPLIT: u32 = 60;
+/// Split at bit 60: rows of 5, 10 and 20 sensors (80-bit float32 periods).
+pub type Split60 = Split<60>;
+/// Split at bit 56: rows of 7 and 14 sensors (112-bit float32 periods).
+pub type Split56 = Split<56>;
 
-impl Split60 {
+impl<const SPLIT: u32> Split<SPLIT> {
     #[inline(always)]
     fn of(x: u128) -> Self {
-        Split60 { lo: x as u64 & ((1 << SPLIT) - 1), hi: (x >> SPLIT) as u64 }
+        Split { lo: x as u64 & ((1 << SPLIT) - 1), hi: (x >> SPLIT) as u64 }
     }
 }
 
 macro_rules! split_op {
     ($tr:ident, $f:ident, $op:tt) => {
-        impl std::ops::$tr for Split60 {
+        impl<const S: u32> std::ops::$tr for Split<S> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: Self) -> Self {
-                Split60 { lo: self.lo $op o.lo, hi: self.hi $op o.hi }
+                Split { lo: self.lo $op o.lo, hi: self.hi $op o.hi }
             }
         }
     };
@@ -42,37 +45,37 @@ macro_rules! split_op {
 split_op!(BitOr, bitor, |);
 split_op!(BitAnd, bitand, &);
 
-impl std::ops::Not for Split60 {
+impl<const S: u32> std::ops::Not for Split<S> {
     type Output = Self;
     #[inline(always)]
     fn not(self) -> Self {
-        Split60 { lo: !self.lo, hi: !self.hi }
+        Split { lo: !self.lo, hi: !self.hi }
     }
 }
 
-impl std::ops::Shl<usize> for Split60 {
+impl<const S: u32> std::ops::Shl<usize> for Split<S> {
     type Output = Self;
     #[inline(always)]
     fn shl(self, n: usize) -> Self {
-        Split60 { lo: self.lo << n, hi: self.hi << n }
+        Split { lo: self.lo << n, hi: self.hi << n }
     }
 }
 
-impl std::ops::Shr<usize> for Split60 {
+impl<const S: u32> std::ops::Shr<usize> for Split<S> {
     type Output = Self;
     #[inline(always)]
     fn shr(self, n: usize) -> Self {
-        Split60 { lo: self.lo >> n, hi: self.hi >> n }
+        Split { lo: self.lo >> n, hi: self.hi >> n }
     }
 }
 
-impl Bits for Split60 {
-    const BITS: usize = 124;
-    const ZERO: Self = Split60 { lo: 0, hi: 0 };
+impl<const SPLIT: u32> Bits for Split<SPLIT> {
+    const BITS: usize = SPLIT as usize + 64;
+    const ZERO: Self = Split { lo: 0, hi: 0 };
     const HI_BASE: usize = SPLIT as usize;
     #[inline(always)]
     fn mask(m: u32) -> Self {
-        Split60 { lo: m.into(), hi: 0 }
+        Split { lo: m.into(), hi: 0 }
     }
     #[inline(always)]
     fn pattern(x: u128) -> Self {
@@ -80,11 +83,11 @@ impl Bits for Split60 {
     }
     #[inline(always)]
     fn add(self, o: Self) -> Self {
-        Split60 { lo: self.lo.wrapping_add(o.lo), hi: self.hi.wrapping_add(o.hi) }
+        Split { lo: self.lo.wrapping_add(o.lo), hi: self.hi.wrapping_add(o.hi) }
     }
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
-        Split60 { lo: self.lo.wrapping_sub(o.lo), hi: self.hi.wrapping_sub(o.hi) }
+        Split { lo: self.lo.wrapping_sub(o.lo), hi: self.hi.wrapping_sub(o.hi) }
     }
     #[inline(always)]
     fn low64(self) -> u64 {
@@ -128,7 +131,7 @@ impl Bits for Split60 {
             let spread = _mm_or_si128(_mm_sub_epi64(several, _mm_srl_epi64(several, shift)), several);
             let single = _mm_andnot_si128(spread, bits);
             let nonzero = _mm_and_si128(_mm_or_si128(_mm_add_epi64(_mm_and_si128(bits, low), low), bits), top);
-            let s = |x: __m128i| Split60 { lo: _mm_cvtsi128_si64(x) as u64, hi: _mm_cvtsi128_si64(_mm_unpackhi_epi64(x, x)) as u64 };
+            let s = |x: __m128i| Split { lo: _mm_cvtsi128_si64(x) as u64, hi: _mm_cvtsi128_si64(_mm_unpackhi_epi64(x, x)) as u64 };
             (s(nonzero), s(single))
         }
     }
@@ -141,52 +144,58 @@ mod tests {
     use crate::bounds::Period;
 
     /// The row verdicts and one-bit fields of random strings, as `u128` and
-    /// as [`Split60`], against each row's field read one at a time: rows of
-    /// 5, 10 and 20 float32 sensors (80-bit periods), fields drawn to be
-    /// empty, single or several bits often.
+    /// as [`Split`], against each row's field read one at a time: rows of
+    /// 5, 10 and 20 float32 sensors (80-bit periods, [`Split60`]) and of 7
+    /// and 14 (112-bit periods, [`Split56`]), fields drawn to be empty,
+    /// single or several bits often.
     #[test]
     fn split_strings_match_rows_read_one_by_one() {
         if !std::arch::is_x86_feature_detected!("bmi2") {
             return; // the periodic kernels that use these need BMI2 too
         }
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        for k in [5usize, 10, 20] {
+            check::<60>(k, 80);
+        }
+        for k in [7usize, 14] {
+            check::<56>(k, 112);
+        }
+    }
+
+    fn check<const S: u32>(k: usize, bits: usize) {
+        let mut state = 0x2545_F491_4F6C_DD1Du64 ^ k as u64;
         let mut next = move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             state
         };
-        for k in [5usize, 10, 20] {
-            let p = Period::new(k, 16, true).expect("a period of float32 rows");
-            let (rows, n) = (p.rows, p.vectors * 16);
-            assert_eq!(n, 80);
-            for _ in 0..20_000 {
-                let mut x = 0u128;
-                for r in 0..rows {
-                    let f = match next() % 4 {
-                        0 => 0,
-                        1 => 1u64 << (next() % k as u64),
-                        _ => next() & next() & ((1u64 << k) - 1),
-                    };
-                    x |= (f as u128) << (r * k);
-                }
-                // SAFETY: BMI2 is available (checked).
-                let (wide, split) = unsafe {
-                    (
-                        row_fields(x, (p.low_bits, p.top_bits), k),
-                        row_fields(Split60::of(x), (Split60::of(p.low_bits), Split60::of(p.top_bits)), k),
-                    )
+        let p = Period::new(k, 16, true).expect("a period of float32 rows");
+        let (rows, n) = (p.rows, p.vectors * 16);
+        assert_eq!(n, bits);
+        let of = Split::<S>::of;
+        for _ in 0..20_000 {
+            let mut x = 0u128;
+            for r in 0..rows {
+                let f = match next() % 4 {
+                    0 => 0,
+                    1 => 1u64 << (next() % k as u64),
+                    _ => next() & next() & ((1u64 << k) - 1),
                 };
-                assert_eq!(wide.1, split.1, "rejected rows of {x:#x}, rows of {k}");
-                for r in 0..rows {
-                    let f = x.field(r, k);
-                    assert_eq!(wide.1 >> r & 1, (f != 0) as u32, "row {r} of {x:#x}");
-                    let single = if f.count_ones() == 1 { f } else { 0 };
-                    assert_eq!((wide.2.field(r, k), split.2.field(r, k)), (single, single), "row {r} of {x:#x}");
-                }
-                let words = |s: Split60| [s.word(0), s.word(1)];
-                assert_eq!(words(split.2), words(Split60::of(wide.2)));
+                x |= (f as u128) << (r * k);
             }
+            // SAFETY: BMI2 is available (checked by the caller).
+            let (wide, split) = unsafe {
+                (row_fields(x, (p.low_bits, p.top_bits), k), row_fields(of(x), (of(p.low_bits), of(p.top_bits)), k))
+            };
+            assert_eq!(wide.1, split.1, "rejected rows of {x:#x}, rows of {k}");
+            for r in 0..rows {
+                let f = x.field(r, k);
+                assert_eq!(wide.1 >> r & 1, (f != 0) as u32, "row {r} of {x:#x}");
+                let single = if f.count_ones() == 1 { f } else { 0 };
+                assert_eq!((wide.2.field(r, k), split.2.field(r, k)), (single, single), "row {r} of {x:#x}");
+            }
+            let words = |s: Split<S>| [s.word(0), s.word(1)];
+            assert_eq!(words(split.2), words(of(wide.2)));
         }
     }
 }
