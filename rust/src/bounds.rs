@@ -73,8 +73,9 @@ impl Period {
     /// vectors and 128 verdict bits.
     ///
     /// A pattern of at most 32 bits (f32 rows of 1, 2, 4 and 8 sensors; f64
-    /// rows of 1-4, 6 and 12) is repeated as often as a `u64` string, eight
-    /// vectors and 32 rows hold: the kernel's work per period (the field
+    /// rows of 1-4, 6 and 12) is repeated as often as a `u64` string,
+    /// [`MAX_REPEATED_VECTORS`] vectors and 32 rows (the candidate bits a
+    /// period pushes) allow: the kernel's work per period (the field
     /// arithmetic, the byte counts, the candidate bits) is then shared by
     /// more rows. Typical rows with diagnostics, alone on one core (`cargo
     /// bench --bench core_kernels`, Zen 4): f64 rows of 2 and 4 and f32 rows
