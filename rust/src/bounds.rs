@@ -66,6 +66,19 @@ pub const MAX_PERIOD_VECTORS: usize = 8;
 /// fast from cache (`benches/results-short-rows.txt`, "session 33").
 const MAX_REPEATED_VECTORS: usize = 6;
 
+/// Values after which rows of `k` sensors in vectors of `w` repeat their
+/// sensor pattern: `lcm(k, w)`.
+fn pattern_values(k: usize, w: usize) -> usize {
+    fn gcd(a: usize, b: usize) -> usize {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
+    k / gcd(k, w) * w
+}
+
 impl Period {
     /// The period of rows of `k` sensors in vectors of `w` values, if the
     /// periodic kernel takes them: more than one row per period (else a row
@@ -82,17 +95,10 @@ impl Period {
     /// of 2, 4 and 8 ran 2.64-3.14 times as fast at AVX-512 as with one
     /// vector a period (`benches/results-short-rows.txt`, "session 33").
     pub fn new(k: usize, w: usize, proper: bool) -> Option<Period> {
-        fn gcd(a: usize, b: usize) -> usize {
-            if b == 0 {
-                a
-            } else {
-                gcd(b, a % b)
-            }
-        }
         if k == 0 || k.is_multiple_of(w) {
             return None;
         }
-        let lcm = k / gcd(k, w) * w;
+        let lcm = pattern_values(k, w);
         // lcm <= 128 bits of verdicts; then k < 64 (k is not a multiple of w).
         if lcm / w > MAX_PERIOD_VECTORS || lcm > 128 || k >= 64 {
             return None;
@@ -113,8 +119,7 @@ impl Period {
         if k == 0 || k.is_multiple_of(w) {
             return self;
         }
-        // lcm(k, w): the period is a multiple of it.
-        let lcm = (1..=self.vectors).map(|v| v * w).find(|n| n.is_multiple_of(k)).unwrap_or(self.vectors * w);
+        let lcm = pattern_values(k, w);
         Period::of(k, lcm / w, lcm / k, self.proper)
     }
 

@@ -112,6 +112,8 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
         let (low, top) = if K != 0 { Period::fields(k, rows) } else { (self.period.low_bits, self.period.top_bits) };
         let patterns = (B::pattern(low), B::pattern(top));
         let every = patterns.0 | patterns.1;
+        // See `Vectors::INTERVALS_FROM_MEMORY`.
+        let from_memory = L::INTERVALS_FROM_MEMORY && P <= 4 && T::W512 == 16;
         for q in 0..periods {
             let p = data.as_ptr().add(q * rows * k);
             // Masks of the lanes inside, the string negated once in general
@@ -120,9 +122,8 @@ impl<T: Prediction, L: Vectors<T>> Periodic<T, L> {
             // there each vector's mask is negated (section "session 27: u128
             // strings" of `benches/results-short-rows.txt`).
             let mut masks = [0u32; P];
-            // `black_box`: the intervals are loaded anew each period (see
-            // `Vectors::INTERVALS_FROM_MEMORY`), not hoisted into registers.
-            let from_memory = L::INTERVALS_FROM_MEMORY && P <= 4 && T::W512 == 16;
+            // `black_box`: the intervals are loaded anew each period, not
+            // hoisted into registers.
             let iv: &Self = if from_memory { std::hint::black_box(self) } else { self };
             for (v, r) in masks.iter_mut().enumerate() {
                 pf.line(p.add(v * w));

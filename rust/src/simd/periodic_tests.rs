@@ -23,7 +23,7 @@ fn periods_of_short_rows() {
     assert_eq!(period(2, 16), Some((4, 32)));
     assert_eq!(period(1, 16), Some((2, 32)));
     // Without the repeats (AVX2 screening): one pattern; whole rows kept.
-    let once = |k, w| Period::new(k, w, true).map(|p| (p.unrepeated(k, w).vectors, p.unrepeated(k, w).rows));
+    let once = |k, w| Period::new(k, w, true).map(|p| p.unrepeated(k, w)).map(|p| (p.vectors, p.rows));
     assert_eq!(once(4, 8), Some((1, 2)));
     assert_eq!(once(12, 8), Some((3, 2)));
     assert_eq!(once(8, 16), Some((1, 2)));
@@ -31,7 +31,8 @@ fn periods_of_short_rows() {
     assert_eq!(once(5, 16), Some((5, 16)));
     let p = Period::whole_rows(16, 8, true).unwrap();
     assert_eq!(p.unrepeated(16, 8), p);
-    let (p, q) = (Period::new(3, 8, true).unwrap(), Period::new(3, 8, true).unwrap().unrepeated(3, 8));
+    let p = Period::new(3, 8, true).unwrap();
+    let q = p.unrepeated(3, 8);
     assert_eq!((q.low_bits, q.top_bits), Period::fields(3, 8));
     assert_eq!(p.low_bits & 0xFF_FFFF, q.low_bits);
     // Longer patterns are not repeated: 48 bits, and 40 (a repeat is 80).
