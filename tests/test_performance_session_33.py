@@ -78,6 +78,12 @@ def test_the_final_code_side_by_side():
 
 def test_the_kernels_alone():
     c = claims()
+    first = {(m[1], int(m[2]), m[3]): m[4] for m in re.finditer(
+        r"^Avx512 (f32|f64) +(\d+) (\w+) \| +([\d.]+) ", _part("'A' (patterns of at most 32 bits"), re.M)}
+    slow = sorted((first[("f32", n, "typical")] for n in (4, 8)), key=float)
+    assert (f"typical float32 rows of 4 and 8 with diagnostics ran at {slow[0]}-{slow[1]} GB/s against "
+            f"{first[('f32', 5, 'typical')]} for rows of 5") in PAGE
+    assert f"typical float32 rows: {slow[0]}-{slow[1]} GB/s against {first[('f32', 5, 'typical')]})" in README
     assert (f"typical rows with diagnostics ran {c['alone512']} times as fast at AVX-512 and {c['alone2']} at AVX2 "
             f"on those widths, float64 rows of 6 and 12 {c['alone612']}") in PAGE
     assert f"f64 rows of 2 and 4 and f32 rows of 2, 4 and 8 ran {c['alone512']} times as fast at AVX-512" in BOUNDS
