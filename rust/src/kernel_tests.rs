@@ -361,15 +361,17 @@ fn empty_intervals_and_nan_rows_match_portable() {
     }
 }
 
-/// The periodic kernel looks for NaN only where a period's values sum to NaN:
-/// +inf and -inf in one period (a NaN sum, no NaN value) must count no
-/// invalid row, and a NaN next to them must count one; at every level.
+/// The kernels look for NaN only where values sum to NaN (a period, a batch
+/// of rows, or a row): +inf and -inf in one period or row (a NaN sum, no NaN
+/// value) must count no invalid row, and a NaN next to them must count one;
+/// at every level.
 #[test]
 fn infinities_that_cancel_are_not_nan() {
     // 9 and 16 (and f32 17 and 25): rows read one per unit, NaN looked for
     // where a batch of rows sums to NaN; -inf under a +inf one row down makes
-    // such a sum without a NaN.
-    for k in [3usize, 5, 7, 9, 10, 12, 16, 17, 25] {
+    // such a sum without a NaN. 33-200: the medium and long-row kernels sum
+    // each row (+inf and -inf in one row).
+    for k in [3usize, 5, 7, 9, 10, 12, 16, 17, 25, 33, 50, 64, 65, 100, 200] {
         let y = vec![0.0; k];
         let b = SensorBounds::new(&y, &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let rows = 200;

@@ -88,7 +88,8 @@ unsafe fn add_accepting<T: Prediction>(c: __m512i, inside: u32) -> __m512i {
 
 /// One vector of sensors from `j` (the lanes in `lanes`) of each row: its
 /// acceptances added to the counts, its accepting lanes or'ed into bits
-/// `at..` of the row's word, its NaN lanes into the row's `nan`.
+/// `at..` of the row's word, its values added to the row's `sums` (NaN is
+/// looked for in the sum once a row: see [`attribute`]).
 ///
 /// # Safety
 /// AVX-512F is available; the lanes lie within every row; the acceptance
@@ -99,7 +100,7 @@ unsafe fn visit<T: Prediction, const N: usize>(
     accept: &[Vec<T>; 2],
     counts: &mut PaddedCounts,
     (j, lanes, at, first_visit): (usize, u32, usize, bool),
-    (words, nan): (&mut [u64; N], &mut [u32; N]),
+    (words, sums): (&mut [u64; N], &mut [T::V512; N]),
 ) {
     let all = prefix(T::W512);
     let low = T::load512(all, accept[0].as_ptr().add(j));
@@ -117,7 +118,7 @@ unsafe fn visit<T: Prediction, const N: usize>(
         }
         let p = T::load512(lanes, rows[r].as_ptr().add(j));
         let inside = T::inside512(lanes, p, low, high);
-        nan[r] |= T::nan512(lanes, p);
+        sums[r] = T::add512(sums[r], p);
         sum = add_accepting::<T>(sum, inside);
         words[r] |= u64::from(inside) << at;
     }
@@ -203,6 +204,13 @@ unsafe fn rejecting_lanes<T: Prediction, const N: usize>(
 /// acceptances to `counts`; with `verdict_first`, rows that all are
 /// candidates are first told apart and not attributed.
 ///
+/// NaN is looked for in each row's sum of values (one add a vector, where a
+/// NaN comparison and its mask's move to a general register were two more
+/// operations), and value by value only when the sum is NaN. Alone on one
+/// core, rows of 65-200 sensors with diagnostics ran 0.93-1.17 times as fast
+/// (AMD EPYC Zen 4, `benches/results-long-rows.txt`, "session 34"; through
+/// `falsify` these rows wait on memory).
+///
 /// # Safety
 /// AVX-512F, POPCNT and BMI1 are available; the rows have the width of `b`,
 /// whose acceptance vectors are padded to whole blocks; `counts` is padded
@@ -221,12 +229,12 @@ unsafe fn attribute<T: Prediction, const N: usize>(
         return [(0, false, last); N];
     }
     counts.rows += N as u64;
-    let (mut n, mut nan, mut first) = ([0u32; N], [0u32; N], [usize::MAX; N]);
+    let (mut n, mut sums, mut first) = ([0u32; N], [T::zero512(); N], [usize::MAX; N]);
     for j0 in (0..k - k % 64).step_by(64) {
         let mut words = [0u64; N];
         unrolled!(64 / T::W512, |v| {
             let at = (j0 + v * w, prefix(w), v * w, !verdict_first);
-            visit(&rows, accept, counts, at, (&mut words, &mut nan));
+            visit(&rows, accept, counts, at, (&mut words, &mut sums));
         });
         tally(j0, &words, u64::MAX, (&mut n, &mut first));
     }
@@ -235,14 +243,17 @@ unsafe fn attribute<T: Prediction, const N: usize>(
         let (mut words, mut valid) = ([0u64; N], 0u64);
         for (v, j) in (j0..k).step_by(w).enumerate() {
             let lanes = prefix((k - j).min(w));
-            visit(&rows, accept, counts, (j, lanes, v * w, !verdict_first), (&mut words, &mut nan));
+            visit(&rows, accept, counts, (j, lanes, v * w, !verdict_first), (&mut words, &mut sums));
             valid |= u64::from(lanes) << (v * w);
         }
         tally(j0, &words, valid, (&mut n, &mut first));
     }
     let mut verdicts = [(0, false, 0); N];
     for r in 0..N {
-        verdicts[r] = (n[r], nan[r] != 0, first[r].min(last));
+        // The row's values sum to NaN iff one is NaN, or (rarely) infinities
+        // cancel: then the row is looked at value by value.
+        let nan = T::nan512(prefix(w), sums[r]) != 0 && rows[r].iter().any(|x| x.to_f64().is_nan());
+        verdicts[r] = (n[r], nan, first[r].min(last));
     }
     verdicts
 }

@@ -1,7 +1,12 @@
 //! AVX2 diagnostics for rows of 9-64 sensors stored one after another in
 //! memory (f32 two to eight vectors of eight, f64 three to sixteen of four),
 //! the AVX2 counterpart of `medium`: every row gets the same work, with no
-//! branch on its verdict. Each vector's comparison gives its accepting
+//! branch on its verdict, except that after a block of candidates the next
+//! block's verdicts come first (`medium_avx2_short::candidates_first`), so a
+//! run of candidates costs its verdicts only: alone on a core, rows of 13-64
+//! sensors with diagnostics, every row a candidate, ran 1.54-2.32 times as
+//! fast (AMD EPYC Zen 4; `benches/results-long-rows.txt`, "session 34").
+//! Each vector's comparison gives its accepting
 //! lanes as all-ones integers, which are subtracted from one 32-bit counter
 //! lane per sensor (rejections = rows - acceptances: no complement, no bit
 //! expansion; f64 vectors two to a counter, see `pair_lanes`); the same
@@ -21,7 +26,7 @@
 //! (`benches/results-long-rows.txt`, "session 20").
 
 use super::checksum::RowsRead;
-use super::medium_avx2_short;
+use super::medium_avx2_short::{self, all_candidates, candidates_first, Rows, BLOCK_ROWS};
 use super::prefetch::Prefetch;
 use crate::kernel::{Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
@@ -94,106 +99,159 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     let (k, w, accept) = (m.cols(), T::W512 / 2, T::accepted(b));
     assert!(vectors::<T>(k) == Some(V) && out.len() == m.rows() && t.per_sensor.len() == k);
     assert!(k >= w && accept[0].len() >= k && accept[1].len() >= k);
-    let (low, high) = (accept[0].as_ptr(), accept[1].as_ptr());
+    assert!(pass_rows > 0 && pass_rows < 1 << 32);
+    let mut read = *sums;
+    let rows_at = |first: usize, end: usize| Rows::of(m, first..end, accept);
+    // "Falsified only by" in `V` more counters (see `counts_alone`) for
+    // rows of four and five f64 vectors, else one add in memory per row at
+    // the row's lowest rejecting sensor (index 64: no rejecting sensor,
+    // never counted).
+    let mut only_by = [0u64; 65];
+    // Whether the last block's rows were all candidates (before the first
+    // block, the first four rows): then the next block's verdicts come first.
+    let mut quiet = m.rows() > 0 && all_candidates::<T, V>(rows_at(0, m.rows().min(4)));
+    for first in (0..m.rows()).step_by(pass_rows) {
+        let end = (first + pass_rows).min(m.rows());
+        let mut c = Counters { accepting: [_mm256_setzero_si256(); V], alone: [_mm256_setzero_si256(); V], invalid: 0 };
+        let mut candidates = 0u64;
+        for block in (first..end).step_by(BLOCK_ROWS) {
+            let block_end = (block + BLOCK_ROWS).min(end);
+            let rows = rows_at(block, block_end);
+            // A candidate row needs its verdict only.
+            if candidates_first::<T, V, S>(quiet, rows, &mut out[block..block_end], &mut read) {
+                candidates += rows.n as u64;
+                continue;
+            }
+            diagnose_block::<T, V, S>(rows, &mut out[block..block_end], (&mut c, &mut only_by), &mut read);
+            quiet = out[block..block_end].iter().all(|&n| n == 0);
+        }
+        // Rows attributed: the blocks of candidates told apart first are not.
+        let rows = (end - first) as u64 - candidates;
+        for (total, count) in t.per_sensor.iter_mut().zip(sensor_counts::<T, V>(&c.accepting, k)) {
+            *total += rows - count;
+        }
+        if counts_alone::<T>(V) {
+            for (total, count) in only_by.iter_mut().zip(sensor_counts::<T, V>(&c.alone, k)) {
+                *total += count;
+            }
+        }
+        t.invalid += c.invalid;
+    }
+    for (total, &count) in t.only_by.iter_mut().zip(&only_by[..k]) {
+        *total += count;
+    }
+    *sums = read;
+}
+
+/// A pass's per-lane counters: accepting sensors, and rows falsified only by
+/// the lane's sensor (rows of four and five f64 vectors, `counts_alone`);
+/// and its NaN rows.
+struct Counters<const V: usize> {
+    accepting: [__m256i; V],
+    alone: [__m256i; V],
+    invalid: u64,
+}
+
+/// Diagnoses `rows` into `out` (their rejecting-sensor counts), the counters
+/// `c` and `only_by`; tells `read` each row read. Not inlined into
+/// [`diagnose_rows`], whose blocks of candidates take `candidates_first`
+/// (as `medium_avx2_short::diagnose_block`): in one function, float32 rows of
+/// 33 and float64 rows of 17 not all candidates ran 0.82-0.87 times as fast
+/// alone on a core (`benches/results-long-rows.txt`, "session 34").
+///
+/// # Safety
+/// AVX2 and POPCNT are available; the rows are readable; `out.len() ==
+/// rows.n`; `vectors::<T>(rows.k) == Some(V)`.
+#[inline(never)]
+#[target_feature(enable = "avx2,popcnt")]
+unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
+    rows: Rows<T>,
+    out: &mut [u32],
+    (c, only_by): (&mut Counters<V>, &mut [u64; 65]),
+    read: &mut S,
+) {
+    let (k, w) = (rows.k, T::W512 / 2);
     // The last vector ends where the row does (k >= w): a whole load, no
     // mask and no branch; its lanes also in the vector before are tested
     // twice (the same verdict) and counted from that vector only.
     let start = |v: usize| if v + 1 < V { v * w } else { k - w };
     let row_lanes = u64::MAX >> (64 - k);
-    // "Falsified only by" in `V` more counters (see `counts_alone`) for
-    // rows of four and five f64 vectors, else one add in memory per row at the row's
-    // lowest rejecting sensor (index 64: no rejecting sensor, never counted).
     let alone_in_lanes = counts_alone::<T>(V);
-    let mut only_by = [0u64; 65];
-    let mut read = *sums;
     let pf = Prefetch::FIXED;
-    // The intervals loaded once: read in the loop, they were loaded again on
-    // every row (the compiler cannot tell the stores to `out` from them).
-    // Alone on a core, rows of 9-64 sensors with diagnostics ran 0.99-1.16
-    // times as fast (AMD EPYC Zen 4; `benches/results-short-rows.txt`,
+    // The intervals loaded once a block: read in the loop, they were loaded
+    // again on every row (the compiler cannot tell the stores to `out` from
+    // them). Alone on a core, rows of 9-64 sensors with diagnostics ran
+    // 0.99-1.16 times as fast (AMD EPYC Zen 4; `benches/results-short-rows.txt`,
     // "session 30: the AVX2 intervals in registers").
-    let lows: [T::V256; V] = std::array::from_fn(|v| T::load256(low.add(start(v))));
-    let highs: [T::V256; V] = std::array::from_fn(|v| T::load256(high.add(start(v))));
-    assert!(pass_rows > 0 && pass_rows < 1 << 32);
-    for first in (0..m.rows()).step_by(pass_rows) {
-        let end = (first + pass_rows).min(m.rows());
-        let (mut accepting, mut alone) = ([_mm256_setzero_si256(); V], [_mm256_setzero_si256(); V]);
-        let mut invalid = 0u64;
-        // f64: the even vector's accepting lanes, until the odd one's.
-        let mut even = _mm256_setzero_si256();
-        for (i, n_out) in (first..end).zip(&mut out[first..end]) {
-            let row = m.row_slice(i).expect("contiguous rows (checked by the caller)");
-            let p = row.as_ptr();
-            // Two sums: half the chain of additions.
-            let (mut inside, mut sum) = (0u64, [T::zero256(); 2]);
-            // Each vector's accepting lanes, until the row's count is known.
-            let mut yes_lanes = [_mm256_setzero_si256(); V];
-            unrolled!(V, |v| {
+    let lows: [T::V256; V] = std::array::from_fn(|v| T::load256(rows.intervals.0.add(start(v))));
+    let highs: [T::V256; V] = std::array::from_fn(|v| T::load256(rows.intervals.1.add(start(v))));
+    let (mut accepting, mut alone, mut invalid) = (c.accepting, c.alone, c.invalid);
+    // f64: the even vector's accepting lanes, until the odd one's.
+    let mut even = _mm256_setzero_si256();
+    let mut p = rows.p;
+    for n_out in out.iter_mut() {
+        // Two sums: half the chain of additions.
+        let (mut inside, mut sum) = (0u64, [T::zero256(); 2]);
+        // Each vector's accepting lanes, until the row's count is known.
+        let mut yes_lanes = [_mm256_setzero_si256(); V];
+        unrolled!(V, |v| {
+            if v % 2 == 0 {
+                // A line ahead every 64 bytes of the row.
+                pf.line(p.wrapping_add(v * w));
+            }
+            let j = start(v);
+            let x = T::load256(p.add(j));
+            let yes = T::inside_lanes256(x, lows[v], highs[v]);
+            if std::mem::size_of::<T>() == 8 {
+                // f64: vectors 2q and 2q + 1 share counter q (see `pair_lanes`).
                 if v % 2 == 0 {
-                    // A line ahead every 64 bytes of the row.
-                    pf.line(p.wrapping_add(v * w));
+                    even = yes;
                 }
-                let j = start(v);
-                let x = T::load256(p.add(j));
-                let yes = T::inside_lanes256(x, lows[v], highs[v]);
+                if v % 2 == 1 || v + 1 == V {
+                    let odd = if v % 2 == 1 { yes } else { _mm256_setzero_si256() };
+                    accepting[v / 2] = _mm256_sub_epi32(accepting[v / 2], pair_lanes(even, odd));
+                }
+            } else {
+                accepting[v] = count::<T>(accepting[v], yes);
+            }
+            inside |= u64::from(sign_bits::<T>(yes)) << j;
+            yes_lanes[v] = yes;
+            sum[v % 2] = T::add256(sum[v % 2], x);
+        });
+        read.rows_read(p.add(k) as *const u8);
+        let rejects = !inside & row_lanes;
+        let n = rejects.count_ones();
+        if alone_in_lanes {
+            // The row's rejecting lanes if it has one rejecting sensor.
+            let single = _mm256_set1_epi32(-i32::from(n == 1));
+            unrolled!(V, |v| {
+                let rejecting = _mm256_andnot_si256(yes_lanes[v], single);
                 if std::mem::size_of::<T>() == 8 {
-                    // f64: vectors 2q and 2q + 1 share counter q (see `pair_lanes`).
-                    if v % 2 == 0 {
-                        even = yes;
-                    }
                     if v % 2 == 1 || v + 1 == V {
-                        let odd = if v % 2 == 1 { yes } else { _mm256_setzero_si256() };
-                        accepting[v / 2] = _mm256_sub_epi32(accepting[v / 2], pair_lanes(even, odd));
+                        // Lanes of a vector past the row's are never read.
+                        let even = _mm256_andnot_si256(yes_lanes[v - v % 2], single);
+                        alone[v / 2] = _mm256_sub_epi32(alone[v / 2], pair_lanes(even, rejecting));
                     }
                 } else {
-                    accepting[v] = count::<T>(accepting[v], yes);
+                    alone[v] = _mm256_sub_epi32(alone[v], rejecting);
                 }
-                inside |= u64::from(sign_bits::<T>(yes)) << j;
-                yes_lanes[v] = yes;
-                sum[v % 2] = T::add256(sum[v % 2], x);
             });
-            read.rows_read(row.as_ptr_range().end as *const u8);
-            let rejects = !inside & row_lanes;
-            let n = rejects.count_ones();
-            if alone_in_lanes {
-                // The row's rejecting lanes if it has one rejecting sensor.
-                let single = _mm256_set1_epi32(-i32::from(n == 1));
-                unrolled!(V, |v| {
-                    let rejecting = _mm256_andnot_si256(yes_lanes[v], single);
-                    if std::mem::size_of::<T>() == 8 {
-                        if v % 2 == 1 || v + 1 == V {
-                            // Lanes of a vector past the row's are never read.
-                            let even = _mm256_andnot_si256(yes_lanes[v - v % 2], single);
-                            alone[v / 2] = _mm256_sub_epi32(alone[v / 2], pair_lanes(even, rejecting));
-                        }
-                    } else {
-                        alone[v] = _mm256_sub_epi32(alone[v], rejecting);
-                    }
-                });
-            } else {
-                only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
-            }
-            // The row's sum is NaN iff a value is (or, rarely, infinities
-            // cancel). Looked for inline: a call here, even never made, had
-            // the counters stored and reloaded around it on every row.
-            invalid += u64::from(T::nan256(T::add256(sum[0], sum[1])) != 0 && row.iter().any(|x| x.to_f64().is_nan()));
-            *n_out = n;
+        } else {
+            only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
         }
-        let rows = (end - first) as u64;
-        for (total, c) in t.per_sensor.iter_mut().zip(sensor_counts::<T, V>(&accepting, k)) {
-            *total += rows - c;
-        }
-        if alone_in_lanes {
-            for (total, c) in only_by.iter_mut().zip(sensor_counts::<T, V>(&alone, k)) {
-                *total += c;
-            }
-        }
-        t.invalid += invalid;
+        // The row's sum is NaN iff a value is (or, rarely, infinities
+        // cancel). Looked for inline: a call here, even never made, had
+        // the counters stored and reloaded around it on every row.
+        invalid += u64::from(
+            T::nan256(T::add256(sum[0], sum[1])) != 0
+                && std::slice::from_raw_parts(p, k).iter().any(|x| x.to_f64().is_nan()),
+        );
+        *n_out = n;
+        // The view's bounds are checked when it is made: the next row starts
+        // `stride` values on (wrapping past the last row, never read).
+        p = p.wrapping_add(rows.stride);
     }
-    for (total, &c) in t.only_by.iter_mut().zip(&only_by[..k]) {
-        *total += c;
-    }
-    *sums = read;
+    (c.accepting, c.alone, c.invalid) = (accepting, alone, invalid);
 }
 
 /// `counter` plus one in each lane where `inside` is all ones (subtracting

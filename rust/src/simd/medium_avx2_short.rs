@@ -43,7 +43,7 @@ use std::arch::x86_64::*;
 /// has the block's rows tested one by one. After a block of candidates,
 /// the next block's rows are first tested for their verdicts alone: if
 /// every sensor accepts all of them, their diagnostics are none.
-const BLOCK_ROWS: usize = 128;
+pub(super) const BLOCK_ROWS: usize = 128;
 
 /// Whether this kernel diagnoses rows of `v` vectors: up to four f32
 /// (rows of 9-32 sensors) or three f64 (9-12). Rows of four and five f64
@@ -82,13 +82,7 @@ pub(super) unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     let mut alone_total = [0u64; 64];
     let pass_rows = pass_rows.min(u16::MAX as usize);
     assert!(pass_rows > 0);
-    let rows_at = |first: usize, end: usize| Rows {
-        p: m.row_slice(first).expect("contiguous rows (checked by the caller)").as_ptr(),
-        n: end - first,
-        stride: m.row_stride(),
-        k,
-        intervals: (accept[0].as_ptr(), accept[1].as_ptr()),
-    };
+    let rows_at = |first: usize, end: usize| Rows::of(m, first..end, accept);
     // Whether the last block's rows were all candidates; before the first
     // block, whether the first four rows are (calls are often of a few
     // blocks: a block tested twice in each would cost rows of few candidates).
@@ -103,11 +97,7 @@ pub(super) unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
         for block in (first..end).step_by(BLOCK_ROWS) {
             let block_end = (block + BLOCK_ROWS).min(end);
             let rows = rows_at(block, block_end);
-            // The verdicts first after a block of candidates: rows every
-            // sensor accepts need no more.
-            if quiet && all_candidates::<T, V>(rows) {
-                read.rows_read(rows.p.wrapping_add(rows.stride * (rows.n - 1)).add(k) as *const u8);
-                out[block..block_end].fill(0);
+            if candidates_first::<T, V, S>(quiet, rows, &mut out[block..block_end], &mut read) {
                 candidates += rows.n as u64;
                 continue;
             }
@@ -149,6 +139,20 @@ pub(super) struct Rows<T> {
 }
 
 impl<T: Prediction> Rows<T> {
+    /// The rows `range` of `m` and the acceptance intervals `accept`.
+    ///
+    /// # Panics
+    /// If the rows are not contiguous (the callers check) or `range` is empty.
+    pub(super) fn of(m: Matrix<'_, T>, range: std::ops::Range<usize>, accept: &[Vec<T>; 2]) -> Rows<T> {
+        Rows {
+            p: m.row_slice(range.start).expect("contiguous rows (checked by the caller)").as_ptr(),
+            n: range.len(),
+            stride: m.row_stride(),
+            k: m.cols(),
+            intervals: (accept[0].as_ptr(), accept[1].as_ptr()),
+        }
+    }
+
     /// Vector `v` of the row at `row`, and its accepting lanes, all ones
     /// (the last vector ends where the row does: see `medium_avx2`).
     ///
@@ -250,6 +254,27 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     T::nan256(values) != 0
 }
 
+/// After a block of candidates (`quiet`), the next block's verdicts come
+/// first: if every row of `rows` is a candidate, their counts (zero) go to
+/// `out`, `read` is told, and the block needs no diagnostics (true).
+///
+/// # Safety
+/// As [`all_candidates`]; `out.len() == rows.n`.
+#[inline(always)]
+pub(super) unsafe fn candidates_first<T: Prediction, const V: usize, S: RowsRead>(
+    quiet: bool,
+    rows: Rows<T>,
+    out: &mut [u32],
+    read: &mut S,
+) -> bool {
+    if quiet && all_candidates::<T, V>(rows) {
+        read.rows_read(rows.p.wrapping_add(rows.stride * (rows.n - 1)).add(rows.k) as *const u8);
+        out.fill(0);
+        return true;
+    }
+    false
+}
+
 /// Whether every sensor accepts each of `rows` (the repeated lanes of the
 /// last vector repeat a verdict). Not inlined: see [`diagnose_block`].
 ///
@@ -257,7 +282,7 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
 /// AVX2 is available; the rows are readable; `V` as in [`diagnose_rows`].
 #[inline(never)]
 #[target_feature(enable = "avx2")]
-unsafe fn all_candidates<T: Prediction, const V: usize>(rows: Rows<T>) -> bool {
+pub(super) unsafe fn all_candidates<T: Prediction, const V: usize>(rows: Rows<T>) -> bool {
     let ones = _mm256_set1_epi32(-1);
     let (mut all, mut p) = (ones, rows.p);
     for _ in 0..rows.n {

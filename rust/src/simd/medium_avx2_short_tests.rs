@@ -1,24 +1,26 @@
 //! The short-row AVX2 kernel against the portable one, where its shortcuts
 //! could go wrong: 16-bit counters over more rows than they hold, and NaN
-//! looked for once a block of rows.
+//! looked for once a block of rows; and the blocks of candidates told apart
+//! first, in it and in `medium_avx2`'s loop of longer rows.
 
-use super::{diagnose_rows, BLOCK_ROWS};
+use super::BLOCK_ROWS;
 use crate::kernel::{diagnose_with, Isa, Prediction, SensorBounds, Tally};
 use crate::matrix::Matrix;
 use crate::simd::checksum::NoSums;
-use crate::simd::medium_avx2::vectors;
+use crate::simd::medium_avx2::{diagnose_in_passes, vectors};
 
-/// `diagnose_rows` (flushed every `pass_rows` rows, at most 65,535) on `m`
-/// equals the portable kernel: counts, tally, invalid rows.
-fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, pass_rows: usize, what: &str) -> Tally {
+/// `medium_avx2`'s diagnostics (flushed every `pass_rows` rows; the short-row
+/// kernel flushes at least every 65,535) on `m` equal the portable kernel's:
+/// counts, tally, invalid rows; `short` says which kernel the width takes.
+fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, (pass_rows, short): (usize, bool), what: &str) -> Tally {
     let (rows, k) = (m.rows(), m.cols());
     let (mut want, mut tw) = (vec![0u32; rows], Tally::zeros(k));
     diagnose_with(Isa::Portable, m, b, &mut want, &mut tw);
     let (mut got, mut t) = (vec![0u32; rows], Tally::zeros(k));
-    assert!(super::takes::<T>(vectors::<T>(k).unwrap()), "{what}: a short-row width");
+    assert_eq!(super::takes::<T>(vectors::<T>(k).unwrap()), short, "{what}: which kernel");
     // SAFETY: AVX2 and POPCNT are available (checked by the callers), rows
-    // are contiguous, `vectors` gave `V`, and it counts "falsified only by" in lanes.
-    by_vectors!(T, k, |V| unsafe { diagnose_rows::<T, V, NoSums>(m, b, &mut got, (&mut t, &mut NoSums), pass_rows) });
+    // are contiguous, and `vectors` takes the width (checked above).
+    unsafe { diagnose_in_passes(m, b, &mut got, (&mut t, &mut NoSums), pass_rows) };
     assert_eq!((&got, &t), (&want, &tw), "{what}, {}", std::any::type_name::<T>());
     tw
 }
@@ -27,6 +29,11 @@ fn check<T: Prediction>(m: Matrix<'_, T>, b: &SensorBounds, pass_rows: usize, wh
 /// (two to four vectors), f64 rows of 9, 11 and 12 (three).
 const F32_WIDTHS: [usize; 3] = [9, 17, 31];
 const F64_WIDTHS: [usize; 3] = [9, 11, 12];
+/// Widths `medium_avx2`'s own loop takes: f32 rows of five to eight vectors,
+/// f64 rows of four to sixteen (four and five count "falsified only by" in
+/// lanes).
+const F32_LONGER: [usize; 3] = [33, 50, 64];
+const F64_LONGER: [usize; 4] = [13, 17, 33, 64];
 
 /// 140,000 rows, in one pass of the kernel's own length (65,535 rows): sensor
 /// 0 rejects nine rows in ten alone (its "falsified only by" count, the
@@ -38,6 +45,7 @@ fn counts_survive_more_rows_than_sixteen_bits_hold() {
     if !Isa::Avx2.supported() {
         return; // the level does not run here
     }
+    let short = true;
     for (k, f64_rows) in F32_WIDTHS.map(|k| (k, false)).into_iter().chain(F64_WIDTHS.map(|k| (k, true))) {
         let rows = 140_000;
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
@@ -53,10 +61,10 @@ fn counts_survive_more_rows_than_sixteen_bits_hold() {
         }
         let what = format!("rows of {k}");
         let tw = if f64_rows {
-            check(Matrix::row_major(&data, rows, k).unwrap(), &b, 1 << 20, &what)
+            check(Matrix::row_major(&data, rows, k).unwrap(), &b, (1 << 20, short), &what)
         } else {
             let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
-            check(Matrix::row_major(&data32, rows, k).unwrap(), &b, 1 << 20, &what)
+            check(Matrix::row_major(&data32, rows, k).unwrap(), &b, (1 << 20, short), &what)
         };
         assert!(tw.only_by[0] > u16::MAX as u64 && rows as u64 - tw.per_sensor[2] > u16::MAX as u64, "{what}");
         assert_eq!(tw.invalid, rows as u64 / 40, "{what}");
@@ -72,6 +80,7 @@ fn nan_rows_are_counted_once_a_block() {
     if !Isa::Avx2.supported() {
         return; // the level does not run here
     }
+    let short = true;
     for (k, f64_rows) in F32_WIDTHS.map(|k| (k, false)).into_iter().chain(F64_WIDTHS.map(|k| (k, true))) {
         let rows = BLOCK_ROWS * 3 + 7;
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
@@ -87,10 +96,10 @@ fn nan_rows_are_counted_once_a_block() {
         let what = format!("rows of {k}");
         for pass_rows in [100, 1 << 20] {
             let tw = if f64_rows {
-                check(Matrix::row_major(&data, rows, k).unwrap(), &b, pass_rows, &what)
+                check(Matrix::row_major(&data, rows, k).unwrap(), &b, (pass_rows, short), &what)
             } else {
                 let data32: Vec<f32> = data.iter().map(|&v| v as f32).collect();
-                check(Matrix::row_major(&data32, rows, k).unwrap(), &b, pass_rows, &what)
+                check(Matrix::row_major(&data32, rows, k).unwrap(), &b, (pass_rows, short), &what)
             };
             assert_eq!(tw.invalid, nan_rows.len() as u64, "{what}");
         }
@@ -103,13 +112,16 @@ fn nan_rows_are_counted_once_a_block() {
 /// row (by one sensor, by two, by a NaN), so a rejected row falls at every
 /// place in a block, in the first four rows of a call and not; and calls that
 /// start with candidates and with a rejected row; in passes of 300 rows and of
-/// the kernel's own length.
+/// the kernel's own length; in the short-row kernel and in `medium_avx2`'s
+/// loop of longer rows.
 #[test]
 fn blocks_of_candidates_lose_no_rejected_row() {
     if !Isa::Avx2.supported() {
         return; // the level does not run here
     }
-    for (k, f64_rows) in F32_WIDTHS.map(|k| (k, false)).into_iter().chain(F64_WIDTHS.map(|k| (k, true))) {
+    let short = F32_WIDTHS.map(|k| (k, false, true)).into_iter().chain(F64_WIDTHS.map(|k| (k, true, true)));
+    let longer = F32_LONGER.map(|k| (k, false, false)).into_iter().chain(F64_LONGER.map(|k| (k, true, false)));
+    for (k, f64_rows, short) in short.chain(longer) {
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let mut state = 0xB10C_CA4D_u64 ^ k as u64;
         let mut data = Vec::new();
@@ -133,10 +145,10 @@ fn blocks_of_candidates_lose_no_rejected_row() {
             let what = format!("rows of {k} from row {skip}");
             for pass_rows in [300, 1 << 20] {
                 let tw = if f64_rows {
-                    check(Matrix::row_major(part, rows - skip, k).unwrap(), &b, pass_rows, &what)
+                    check(Matrix::row_major(part, rows - skip, k).unwrap(), &b, (pass_rows, short), &what)
                 } else {
                     let data32: Vec<f32> = part.iter().map(|&v| v as f32).collect();
-                    check(Matrix::row_major(&data32, rows - skip, k).unwrap(), &b, pass_rows, &what)
+                    check(Matrix::row_major(&data32, rows - skip, k).unwrap(), &b, (pass_rows, short), &what)
                 };
                 assert!(tw.only_by.iter().sum::<u64>() > 0 && tw.invalid > 0, "{what}");
             }
