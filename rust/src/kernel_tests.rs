@@ -370,7 +370,8 @@ fn infinities_that_cancel_are_not_nan() {
     // 9 and 16 (and f32 17 and 25): rows read one per unit, NaN looked for
     // where a batch of rows sums to NaN; -inf under a +inf one row down makes
     // such a sum without a NaN. 33-200: the medium and long-row kernels sum
-    // each row (+inf and -inf in one row).
+    // each row lane by lane, so -inf also at sensor 16, in sensor 0's lane
+    // (vectors of 4, 8 and 16 from the row's start).
     for k in [3usize, 5, 7, 9, 10, 12, 16, 17, 25, 33, 50, 64, 65, 100, 200] {
         let y = vec![0.0; k];
         let b = SensorBounds::new(&y, &vec![-1.0; k], &vec![1.0; k]).unwrap();
@@ -381,6 +382,9 @@ fn infinities_that_cancel_are_not_nan() {
                 data[r * k] = f64::INFINITY;
                 data[r * k + k - 1] = f64::NEG_INFINITY;
                 data[(r + 1) * k] = f64::NEG_INFINITY;
+                if k > 32 {
+                    data[r * k + 16] = f64::NEG_INFINITY;
+                }
                 if with_nan && r % 2 == 0 {
                     data[r * k + k / 2] = f64::NAN;
                 }

@@ -142,7 +142,8 @@ impl<T: Prediction> Rows<T> {
     /// The rows `range` of `m` and the acceptance intervals `accept`.
     ///
     /// # Panics
-    /// If the rows are not contiguous (the callers check) or `range` is empty.
+    /// If the rows are not contiguous (the callers check) or `range.start` is
+    /// not a row of `m`.
     pub(super) fn of(m: Matrix<'_, T>, range: std::ops::Range<usize>, accept: &[Vec<T>; 2]) -> Rows<T> {
         Rows {
             p: m.row_slice(range.start).expect("contiguous rows (checked by the caller)").as_ptr(),
