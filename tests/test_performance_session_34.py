@@ -1,12 +1,16 @@
-"""Session 34's figures in docs/performance.md and the doc comments of the
-AVX-512 medium and long-row kernels, recomputed from the runs recorded in
-benches/results-long-rows.txt, section "session 34: NaN from each row's sum"."""
+"""Session 34's figures in docs/performance.md, the README and the doc
+comments of the medium and long-row kernels, recomputed from the runs
+recorded in benches/results-long-rows.txt (sections "session 34: NaN from
+each row's sum" and "session 34: the AVX2 medium loop's verdicts first") and
+the floor table's runs in benches/results-short-rows.txt ("session 34 final
+code", "session 34 AVX2 final code")."""
 
 import re
 import statistics
 
-from test_performance_session_29 import PAGE, ROOT, _span
+from test_performance_session_29 import PAGE, ROOT, SHORT_ROWS, _span
 from test_performance_session_29 import _section as _section_of
+from test_performance_tables import _cases_table, _final_runs
 
 SECTION = _section_of("session 34: NaN from each row's sum")
 # One case of core_kernels_pair.py: level, dtype, width, case, paired diag/scr.
@@ -16,8 +20,9 @@ THROUGH = re.compile(r"^ +\d+ f\d\d +\w+ +(?:diag|scr) .*old/new paired ([\d.]+)
 MEDIAN = re.compile(r"^old/new paired, median over (\d+) cases: ([\d.]+) \(range ([\d.]+)-([\d.]+)\)$", re.M)
 
 
-def _part(heading: str) -> str:
-    parts = SECTION.split("--- " + heading)
+def _part(heading: str, section: str = SECTION) -> str:
+    """The part of `section` headed "--- <heading>..."."""
+    parts = section.split("--- " + heading)
     assert len(parts) == 2, heading
     return parts[1].split("\n--- ")[0]
 
@@ -65,9 +70,7 @@ THROUGH_CASE = re.compile(r"^ +(\d+) (f32|f64) +(\w+) +(diag|scr) .*floor +([\d.
 
 
 def _verdicts_part(heading: str) -> str:
-    parts = VERDICTS.split("--- " + heading)
-    assert len(parts) == 2, heading
-    return parts[1].split("\n--- ")[0]
+    return _part(heading, VERDICTS)
 
 
 def test_the_avx2_verdicts_first():
@@ -116,22 +119,15 @@ def test_the_readme_paragraph():
     assert f"over each run's cases {medians[0]}, {medians[1]} and {medians[2]})" in readme
 
 
-# A method's row of one floor run: n_m, dtype, case, mode, floor ms, speed / floor.
-FLOOR_ROW = re.compile(r"^\s*(\d+)\s+(f\d\d)\s+(\w+)\s+[\d,]+\s+(diagnostics|no diagnostics)\s+[\d.]+\s+([\d.]+)\s+([\d.]+)",
-                       re.M)
 FLOOR_MS = re.compile(r"^\s*\d+\s+f\d\d\s+\w+\s+[\d,]+\s+floor\s+([\d.]+)", re.M)
-SHORT_ROWS = (ROOT / "benches" / "results-short-rows.txt").read_text()
 
 
-def _level(title: str) -> tuple[dict, list[float]]:
-    """Per (n_m, dtype, case, mode) the speed / floor of each of the six runs, and every floor read."""
-    runs = [s for s in SHORT_ROWS.split("\n=== ") if s.startswith(title)]
-    assert len(runs) == 6, title
-    ratios: dict = {}
-    for run in runs:
-        for m in FLOOR_ROW.finditer(run):
-            ratios.setdefault((m[1], m[2], m[3], m[4]), []).append(float(m[6]))
-    return ratios, [float(f) for run in runs for f in FLOOR_MS.findall(run)]
+def _level(session: str) -> tuple[dict, list[float]]:
+    """Per (n_m, dtype, case, mode) the speed / floor of each of the six runs
+    of "session <session> final code", and every floor read."""
+    runs = _final_runs(SHORT_ROWS, session)
+    assert len(runs) == 6, session
+    return _cases_table(runs), [float(f) for run in runs for f in FLOOR_MS.findall(run)]
 
 
 def _target(n_m: str, case: str, mode: str):
@@ -141,39 +137,36 @@ def _target(n_m: str, case: str, mode: str):
     return 0.80 if case == "worst" and mode == "diagnostics" else 0.90 if n_m != "5" else 0.70
 
 
-_median = statistics.median
-
-
 def test_the_current_floor_table():
     """The README's and the page's table of the session's end: the median and
     range of the six runs at each level, the floors, the cases below the
     issue's targets, as the recorded runs give them."""
     readme = (ROOT / "README.md").read_text()
     page_text = (ROOT / "docs" / "performance.md").read_text()
-    (a512, fa), (avx2, fb) = _level("session 34 final code"), _level("session 34 AVX2 final code")
+    (a512, fa), (avx2, fb) = _level("34"), _level("34 AVX2")
     assert len(a512) == len(avx2) == 8 * 2 * 2 * 2 and {len(v) for v in (*a512.values(), *avx2.values())} == {6}
-    cell = lambda v: f"{_median(v):.2f} ({min(v):.2f}-{max(v):.2f})"  # noqa: E731
+    cell = lambda v: f"{statistics.median(v):.2f} ({min(v):.2f}-{max(v):.2f})"  # noqa: E731
     for n_m, dtype, case in {k[:3] for k in a512}:
         cells = [cell(r[(n_m, dtype, case, mode)]) for r in (a512, avx2) for mode in ("diagnostics", "no diagnostics")]
         row = f"| {n_m} | {dtype} | {case} | " + " | ".join(cells) + " |"
         assert row in readme and row in page_text, row
     words = " ".join(readme.split())
     floors = fa + fb
-    assert (f"a median of {_median(fa):.1f} ms at AVX-512 and {_median(fb):.1f} ms at AVX2 "
+    assert (f"a median of {statistics.median(fa):.1f} ms at AVX-512 and {statistics.median(fb):.1f} ms at AVX2 "
             f"({min(floors):.1f}-{max(floors):.1f} ms across the runs)") in words
     missed = []
     for ratios in (a512, avx2):
-        below = sorted((k for k, v in ratios.items() if _target(k[0], k[2], k[3]) and _median(v) < _target(k[0], k[2], k[3])),
+        below = sorted((k for k, v in ratios.items() if _target(k[0], k[2], k[3]) and statistics.median(v) < _target(k[0], k[2], k[3])),
                        key=lambda k: (int(k[0]), k[1], k[2], k[3]))
         missed.append(", ".join(f"{k[1]} rows of {k[0]} {k[2]} {'with' if k[3] == 'diagnostics' else 'without'} "
-                                f"diagnostics {_median(ratios[k]):.2f}" for k in below))
+                                f"diagnostics {statistics.median(ratios[k]):.2f}" for k in below))
         n = sum(1 for k in ratios if _target(k[0], k[2], k[3]))
         assert n == 40
     n512 = 40 - missed[0].count(" rows of ")
     n2 = 40 - missed[1].count(" rows of ")
     assert f"by the median, {n512} of the 40 cases meet them at AVX-512 and {n2} at AVX2" in words
     assert f"The misses: at AVX-512, {missed[0]}; at AVX2, {missed[1]}." in words
-    lowest = min(((_median(v), k) for r in (a512, avx2) for k, v in r.items()))
+    lowest = min(((statistics.median(v), k) for r in (a512, avx2) for k, v in r.items()))
     assert lowest[1] == ("9", "f32", "typical", "diagnostics")
     spread = max(max(v) - min(v) for r in (a512, avx2) for v in r.values())
     assert f"The same case moves by up to {spread:.1f} between runs" in words
