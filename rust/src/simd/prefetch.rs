@@ -6,7 +6,8 @@
 //! vectors, and back-to-back rows whose pattern repeats within eight) use the
 //! one chosen for this CPU ([`Prefetch::for_cpu`]); the others keep a constant
 //! one ([`Prefetch::FIXED`]), which on an AMD EPYC (family 0x19) did as well
-//! or better for their rows. A prefetch is a hint: the candidates do not
+//! or better for their rows (there a non-temporal prefetch, or none, halved
+//! the long rows' speed). A prefetch is a hint: the candidates do not
 //! depend on it.
 
 use super::cpu::Cpu;
@@ -50,8 +51,9 @@ impl Prefetch {
     ///   times the speed of `t1:8192` on rows of 5-16 sensors with
     ///   diagnostics (`benches/results-short-rows.txt`, "session 19:
     ///   prefetch scan").
-    /// - Others: into L2, 8 KiB ahead ([`Prefetch::FIXED`]), measured best on
-    ///   an Intel Xeon; AMD before Zen 3 keeps it too (not measured there).
+    /// - Others: into L2, 8 KiB ahead (the other kernels' until session 35,
+    ///   [`Prefetch::FIXED`]), measured best on an Intel Xeon; AMD before
+    ///   Zen 3 keeps it too (not measured there).
     pub fn for_cpu(cpu: Cpu) -> Prefetch {
         if cpu.amd && cpu.family >= 0x19 {
             Prefetch { hint: Hint::Nta, bytes: 4096 }
@@ -130,15 +132,22 @@ pub const RUN_TIME: u8 = u8::MAX;
 
 impl Prefetch {
     /// The prefetch of the AVX2 kernels and of the AVX-512 kernels of longer
-    /// rows, whatever the CPU: into L2, 8 KiB ahead, a constant in their
+    /// rows, whatever the CPU: into L2, 6 KiB ahead, a constant in their
     /// code. Chosen at run time, the prefetch costs a branch on every line,
     /// which the AVX2 kernels, short of registers, paid with 10-13 % of
     /// their speed on f32 rows of 10-50 sensors (AMD EPYC, family 0x19:
     /// 0.870-0.899 of the session start's; `benches/results-short-rows.txt`,
-    /// "session 19: where the time went"), while the hint made no clear
-    /// difference to those rows or to the AVX-512 kernels of rows of 50 and
-    /// 200.
-    pub const FIXED: Prefetch = Prefetch { hint: Hint::T1, bytes: 8192 };
+    /// "session 19: where the time went").
+    ///
+    /// Why 6 KiB: 8 KiB until session 35. Side by side through `falsify`
+    /// (AMD EPYC Zen 4, two runs at each level), 6 KiB made rows of 25-200
+    /// sensors 1.043 (AVX-512) and 1.047 (AVX2) times as fast by the median
+    /// (`benches/results-long-rows.txt`, "session 35: the fixed prefetch
+    /// t1:6144"). The distance matters: 4 KiB slowed f64 rows of 200 there,
+    /// none or into L1 halved their speed ("session 35: the fixed prefetch's
+    /// distance"). The Xeon of the module docs read alike 4 and 8 KiB ahead;
+    /// 6 KiB was not measured on an Intel CPU.
+    pub const FIXED: Prefetch = Prefetch { hint: Hint::T1, bytes: 6144 };
 
     /// No prefetch (rereading lines just read).
     pub const OFF: Prefetch = Prefetch { hint: Hint::Off, bytes: 0 };
