@@ -49,7 +49,7 @@ def prefetch() -> str:
     ``"nta:4096"`` (non-temporal, 4 KiB ahead), ``"t1:8192"`` (into L2, 8 KiB
     ahead), ... or ``"off"``. Chosen for this CPU, or named by the environment
     variable ``EDMF_RS_PREFETCH``. (The other kernels always use
-    ``"t1:8192"``.)"""
+    ``"t1:6144"``, into L2 6 KiB ahead.)"""
 
 def set_prefetch(name: str) -> None:
     """Uses the prefetch ``name`` (as `prefetch` gives it) from now on, to
