@@ -9,7 +9,7 @@ import re
 import statistics
 
 from test_performance_session_29 import PAGE, ROOT, _section
-from test_performance_session_34 import check_floor_table
+from test_performance_session_34 import avx2_rows_of_9_rate, check_floor_table
 
 SCAN = _section("session 35: the fixed prefetch's distance")
 SIDE = _section("session 35: the fixed prefetch t1:6144")
@@ -38,11 +38,20 @@ def _scan_values() -> dict[tuple[str, str, int], list[float]]:
     return values
 
 
+def _rows_of_200(values: dict, builds: tuple[str, ...]) -> list[float]:
+    """Every value of `builds` on rows of 200 (both dtypes)."""
+    return [v for (b, _, n), vs in values.items() if b in builds and n == 200 for v in vs]
+
+
+# The builds that prefetch nothing into L2: non-temporal, none, into L1.
+AWAY = ("Nta4096", "Nta8192", "Off0", "T08192")
+
+
 def test_the_distance_scan():
     values = _scan_values()
     (reading,) = [line for line in SCAN.splitlines() if line.startswith("Reading:")]
     words = " ".join(reading.split())
-    away = [v for (b, _, n), vs in values.items() if b in ("Nta4096", "Nta8192", "Off0", "T08192") and n == 200 for v in vs]
+    away = _rows_of_200(values, AWAY)
     # Four builds, two passes, two dtypes, two cases, four methods.
     assert len(away) == 4 * 2 * 2 * 2 * 4
     assert f"these kernels read rows of 200 at {min(away):.2f}-{max(away):.2f} of the floor" in words
@@ -59,7 +68,7 @@ def test_the_distance_scan():
     assert "t1:6144 is the best on float32 rows and ties t1:8192 on float64 rows" in words
     # The doc comment's summary of the scan.
     assert medians["T14096"][1] < medians["base"][1] - 0.1 and "4 KiB slowed f64 rows of 200 there" in FIXED_DOC
-    base = [v for (b, _, n), vs in values.items() if b == "base" and n == 200 for v in vs]
+    base = _rows_of_200(values, ("base",))
     assert statistics.median(away) < 0.6 * statistics.median(base) and "none or into L1 halved their speed" in FIXED_DOC
 
 
@@ -102,10 +111,14 @@ def test_side_by_side():
 
 def test_the_scan_in_the_docs():
     values = _scan_values()
-    away = [v for (b, _, n), vs in values.items() if b in ("Nta4096", "Nta8192", "Off0", "T08192") and n == 200 for v in vs]
+    away = _rows_of_200(values, AWAY)
     span = f"{min(away):.2f}-{max(away):.2f}"
     assert f"these kernels read rows of 200 at {span} of the floor with no prefetch, into L1 or non-temporal" in PAGE
     assert f"with none, into L1 or non-temporal, rows of 200 read {span} of the floor" in README
+    f32 = {b: statistics.median(values[(b, "f32", 200)]) for b in ("T14096", "T15120", "T16144", "T17168", "base")}
+    f64 = {b: statistics.median(values[(b, "f64", 200)]) for b in f32}
+    assert max(f32, key=f32.get) == "T16144" and min(f64, key=f64.get) == "T14096"
+    assert "into L2, 4 KiB ahead slowed float64 rows of 200 and 6 KiB read float32 rows of 200 best" in PAGE
 
 
 def test_the_current_floor_table():
@@ -118,9 +131,4 @@ def test_the_current_floor_table():
     assert min(statistics.median(v) for v in a512.values()) > lowest[0]
     for text in (words, PAGE):
         assert f"float32 rows of 9 in the typical case with diagnostics ({lowest[0]:.2f} at AVX2)" in text
-    # The kernel alone on that case (session 34's run; its code did not change since).
-    alone = [line for line in _section("session 34: the AVX2 medium loop's verdicts first").splitlines()
-             if re.match(r"Avx2 f32 +9 typical \|", line)]
-    assert len(alone) == 1
-    rate = re.search(r"\| +[\d.]+ +[\d.]+ \| +([\d.]+) ", alone[0])[1]
-    assert f"alone on one core it diagnoses them at {rate} GB/s" in words
+    assert f"alone on one core it diagnoses them at {avx2_rows_of_9_rate()} GB/s" in words
