@@ -25,7 +25,9 @@ def assert_same(result, expected):
 @st.composite
 def problems(draw):
     n = draw(st.integers(0, 300))
-    n_m = draw(st.one_of(st.integers(1, 7), st.integers(8, 80)))
+    # Up to 140: f32 rows of 65-128 take the medium kernels (two words of
+    # verdict bits a row), longer rows and f64 rows past 64 the long-row ones.
+    n_m = draw(st.one_of(st.integers(1, 7), st.integers(8, 80), st.integers(81, 140)))
     dtype = draw(st.sampled_from([np.float64, np.float32]))
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
@@ -186,3 +188,24 @@ def test_large_run_is_deterministic_across_threads(threads):
         edmf_rs.set_num_threads(2)
     expected = reference.falsify(p, np.zeros(12), thresholds)
     assert_same(r, expected)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_rows_of_two_words_are_attributed_at_every_sensor(dtype):
+    # Rows of 60-130 sensors (a row's verdict string crosses 64 bits): row r is
+    # rejected by sensor r % n_m alone, or by it and the next (one of them
+    # NaN), or by none; every sensor is the first, the only and a later one.
+    for n_m in (60, 64, 65, 66, 72, 95, 96, 100, 127, 128, 129, 130):
+        n = 3 * n_m + 7
+        p = np.zeros((n, n_m), dtype=dtype)
+        rows = np.arange(n)
+        alone = rows[rows % 3 == 0]
+        p[alone, (alone // 3) % n_m] = 5.0
+        both = rows[rows % 3 == 1]
+        p[both, (both // 3) % n_m] = -5.0
+        p[both, (both // 3 + 1) % n_m] = np.nan
+        t = edmf_rs.Thresholds(-np.ones(n_m), np.ones(n_m))
+        expected = reference.falsify(p, np.zeros(n_m), t)
+        assert expected.n_candidates == n - 2 * (n // 3) - (n % 3 > 0) - (n % 3 > 1)
+        assert np.all(expected.falsified_only_by > 0) and expected.n_invalid > 0
+        assert_same(edmf_rs.falsify(p, np.zeros(n_m), t, progress=False), expected)

@@ -1,5 +1,6 @@
 //! AVX-512 kernels of the rows the periodic, short-row and medium kernels do
-//! not take: with diagnostics, rows of more than 64 sensors; screened, rows
+//! not take: with diagnostics, f32 rows of more than 128 sensors and f64
+//! rows of more than 64; screened, rows
 //! of more than two vectors (rows whose values are not contiguous get the
 //! literal test of each value). Rows are tested two at a time, vector by vector: each vector of intervals is
 //! loaded once for both rows. With diagnostics the per-sensor counts are one

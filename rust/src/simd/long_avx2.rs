@@ -6,9 +6,9 @@
 //! counts are counted per bit of that string in byte lanes, 32 sensors a
 //! register (`periodic_avx2::bit_bytes`), and added to the tally every 255
 //! rows. After four candidates in a row the verdict comes first (as
-//! `long::attribute` does after two). With diagnostics, rows of 9-64
-//! sensors stored one after another go to `medium_avx2` instead; these
-//! keep rows of more than 64 and rows not stored that way.
+//! `long::attribute` does after two). With diagnostics, rows stored one
+//! after another of 9-64 sensors (f32: 9-128) go to `medium_avx2` instead;
+//! these keep the longer rows and rows not stored that way.
 //!
 //! Why: the row loop this replaces widened f32 to f64 (four values a
 //! comparison) and added every vector's verdicts to u64 counts in memory (a

@@ -1,9 +1,10 @@
-//! AVX-512 diagnostics for rows of a few vectors (f32 rows of 33-64
-//! sensors, f64 rows of 17-64): the `V` vectors of acceptance intervals stay
-//! in registers for the whole block, the per-sensor counts are masked adds of
-//! the *accepting* sensors into `V` register counters (rejections = rows -
-//! acceptances: no complement per vector), a row's accepting sensors are one
-//! 64-bit word (violation count = popcount of its complement), and "falsified
+//! AVX-512 diagnostics for rows of three to eight vectors (f32 rows of
+//! 33-128 sensors, f64 rows of 17-64): the `V` vectors of acceptance
+//! intervals stay in registers for the whole block (3V of the 32 vector
+//! registers), the per-sensor counts are masked adds of the *accepting*
+//! sensors into `V` register counters (rejections = rows - acceptances: no
+//! complement per vector), a row's accepting sensors are one or two 64-bit
+//! words (violation count = popcount of their complement), and "falsified
 //! only by" is one add in memory at the row's lowest rejecting sensor.
 //!
 //! Why: the long-row loop (then `avx512::diagnose_row`, now `long`) reloads the intervals and
@@ -17,7 +18,11 @@
 //! sensors" of `benches/results-long-rows.txt`), f64 rows of 50 with every
 //! row a candidate 51-57 -> 83-90 M rows/s, with 1.2 % of values outside each
 //! interval (45 % of the rows rejected) 40-42 -> 84-89; f32 105-106 -> 134-157
-//! and 73-75 -> 139-152.
+//! and 73-75 -> 139-152. f32 rows of 65-128 took the long-row kernel until
+//! session 36, where typical rows of 65 with diagnostics ran at a third of the
+//! speed of rows of 64 alone on one core, and at 0.56-0.63 of the read floor
+//! through `falsify` (section "session 36: f32 rows of 65-128" of
+//! `benches/results-long-rows.txt`).
 
 use super::prefetch::Prefetch;
 use super::checksum::RowsRead;
@@ -29,12 +34,16 @@ use std::arch::x86_64::*;
 /// below 2^32, so they never wrap).
 const FLUSH_ROWS: usize = 1 << 20;
 
-/// Vectors per row of `k` sensors if this kernel takes them: whole rows in at
-/// most 64 lanes (a row's rejections fit one u64), and more than two vectors
-/// (rows of one or two vectors go to `ShortRows`).
+/// Most vectors a row of this kernel has: with three registers each (the
+/// two bounds and the counter), eight leave eight of the 32 for the work.
+const MAX_VECTORS: usize = 8;
+
+/// Vectors per row of `k` sensors if this kernel takes them: more than two
+/// vectors (rows of one or two go to `ShortRows`) and at most
+/// [`MAX_VECTORS`] (so at most 128 lanes: a row's string fits two u64).
 pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
     let v = k.div_ceil(T::W512);
-    (k <= 64 && v > 2).then_some(v)
+    (v > 2 && v <= MAX_VECTORS).then_some(v)
 }
 
 /// Writes the rejecting-sensor count of every row of `m` to `out` and adds
@@ -55,16 +64,20 @@ pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
 ) {
     let (k, w, accept) = (m.cols(), T::W512, T::accepted(b));
     assert!(out.len() == m.rows() && t.per_sensor.len() == k && accept[0].len() >= V * w);
+    assert!((V - 1) * w < k && k <= V * w && V <= MAX_VECTORS);
     let all = u32::MAX >> (32 - w);
     // Every vector but the last is whole: loaded unmasked, tested unmasked.
     let last = all >> (w - (k - (V - 1) * w));
-    let row_lanes = u64::MAX >> (64 - k);
+    // The row's string: bits 0-63 in word 0, 64-127 in word 1 (for rows of
+    // up to 64 lanes a constant zero, which the compiler drops).
+    let two_words = V * w > 64;
+    let row_lanes = [u64::MAX >> (64 - k.min(64)), if two_words { u64::MAX >> (128 - k) } else { 0 }];
     let low: [T::V512; V] = std::array::from_fn(|v| T::load512(all, accept[0].as_ptr().add(v * w)));
     let high: [T::V512; V] = std::array::from_fn(|v| T::load512(all, accept[1].as_ptr().add(v * w)));
     // "Falsified only by": counted at the row's lowest rejecting sensor when
-    // it has exactly one (index 64: no rejecting sensor, never counted), in
+    // it has exactly one (index 64 or 128: none, never counted), in
     // memory rather than in V more vector counters.
-    let mut only_by = [0u64; 65];
+    let mut only_by = [0u64; 129];
     let mut read = *sums;
     let pf = Prefetch::FIXED; // see `Prefetch::now` for which kernels choose
     for first in (0..m.rows()).step_by(FLUSH_ROWS) {
@@ -80,9 +93,16 @@ pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
             }
             let (inside, nan) = visit_row(row.as_ptr(), &low, &high, last, &mut accepting);
             read.rows_read(row.as_ptr_range().end as *const u8);
-            let rejects = !inside & row_lanes;
-            let n = rejects.count_ones();
-            only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
+            let rejects = [!inside[0] & row_lanes[0], !inside[1] & row_lanes[1]];
+            let n = rejects[0].count_ones() + rejects[1].count_ones();
+            // Without a branch (a row's first rejecting sensor is random);
+            // past the row (64 or 128) when none rejects.
+            let lowest = if !two_words || rejects[0] != 0 {
+                rejects[0].trailing_zeros()
+            } else {
+                64 + rejects[1].trailing_zeros()
+            };
+            only_by[lowest as usize] += u64::from(n == 1);
             // A NaN sum: a NaN value, or (rarely) infinities that cancel.
             invalid += u64::from(nan != 0 && row.iter().any(|x| x.to_f64().is_nan()));
             *n_out = n;
@@ -96,7 +116,8 @@ pub unsafe fn diagnose<T: Prediction, const V: usize, S: RowsRead>(
     *sums = read;
 }
 
-/// The accepting sensors (bit `v * W512 + l` for lane `l` of vector `v`) and
+/// The accepting sensors (bit `v * W512 + l` for lane `l` of vector `v`, in
+/// two words: bits 0-63 and 64-127) and
 /// the NaN lanes of the sum of the `V` vectors of predictions at `p` (nonzero
 /// if a value is NaN, or rarely if infinities cancel: the caller then looks
 /// at the row; one add a vector rather than a comparison and a mask move:
@@ -115,17 +136,18 @@ unsafe fn visit_row<T: Prediction, const V: usize>(
     high: &[T::V512; V],
     last: u32,
     accepting: &mut [__m512i; V],
-) -> (u64, u32) {
+) -> ([u64; 2], u32) {
     let w = T::W512;
     let all = u32::MAX >> (32 - w);
     let ones = _mm512_set1_epi32(1);
-    let (mut inside, mut sum) = (0u64, T::zero512());
+    let (mut inside, mut sum) = ([0u64; 2], T::zero512());
     unrolled!(V, |v| {
         let lanes = if v + 1 < V { all } else { last };
         let x = T::load512(lanes, p.add(v * w));
         let accepted = T::inside512(lanes, x, low[v], high[v]);
         sum = T::add512(sum, x);
-        inside |= u64::from(accepted) << (v * w);
+        // `v` is a constant here: so are the word and the shift.
+        inside[v * w / 64] |= u64::from(accepted) << (v * w % 64);
         // Accepting sensors are counted: no complement per vector.
         accepting[v] = _mm512_mask_add_epi32(accepting[v], accepted as __mmask16, accepting[v], ones);
     });

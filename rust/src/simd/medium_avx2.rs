@@ -1,5 +1,6 @@
-//! AVX2 diagnostics for rows of 9-64 sensors stored one after another in
-//! memory (f32 two to eight vectors of eight, f64 three to sixteen of four),
+//! AVX2 diagnostics for rows stored one after another in memory of 9-128
+//! f32 sensors (two to sixteen vectors of eight) or 9-64 f64 (three to
+//! sixteen of four),
 //! the AVX2 counterpart of `medium`: every row gets the same work, with no
 //! branch on its verdict, except that after a block of candidates the next
 //! block's verdicts come first (`medium_avx2_short::candidates_first`), so a
@@ -10,7 +11,8 @@
 //! lanes as all-ones integers, which are subtracted from one 32-bit counter
 //! lane per sensor (rejections = rows - acceptances: no complement, no bit
 //! expansion; f64 vectors two to a counter, see `pair_lanes`); the same
-//! lanes' sign bits make the row's accepting sensors one 64-bit word, whose
+//! lanes' sign bits make the row's accepting sensors one 64-bit word (two
+//! for f32 rows of more than 64), whose
 //! complement's popcount is the violation count and whose lowest bit is the
 //! first rejecting sensor ("falsified only by" for rows of four and five
 //! f64 vectors: `counts_alone`). Rows of up to four f32 and three f64
@@ -23,7 +25,10 @@
 //! expansion per row: f32 rows of 50 with 45 % of rows rejected ran at 73 M
 //! rows/s on one core of an AMD EPYC (Zen 4, `cargo bench -- long_rows`),
 //! 14.5 GB/s, below what each of two cores reads from memory there
-//! (`benches/results-long-rows.txt`, "session 20").
+//! (`benches/results-long-rows.txt`, "session 20"). It took f32 rows of
+//! 65-128 too until session 36: typical rows of 65 with diagnostics read
+//! 16 GB/s alone on a core against 29 for rows of 64 (section "session 36:
+//! f32 rows of 65-128").
 
 use super::checksum::RowsRead;
 use super::medium_avx2_short::{self, all_candidates, candidates_first, Rows, BLOCK_ROWS};
@@ -38,9 +43,11 @@ const FLUSH_ROWS: usize = 1 << 20;
 
 /// Vectors of `T::W512 / 2` lanes per row of `k` sensors if this kernel
 /// takes them: more than eight sensors (fewer go to `short_avx2`) and at
-/// most 64 (a row's accepting sensors fit one u64).
+/// most sixteen vectors of at most 128 sensors (a row's accepting sensors
+/// fit a u128): f32 rows of up to 128, f64 of up to 64.
 pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
-    (8 < k && k <= 64).then(|| k.div_ceil(T::W512 / 2))
+    let v = k.div_ceil(T::W512 / 2);
+    (8 < k && v <= 16 && k <= 128).then_some(v)
 }
 
 /// Writes the rejecting-sensor count of every row of `m` to `out` and adds
@@ -104,9 +111,9 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     let rows_at = |first: usize, end: usize| Rows::of(m, first..end, accept);
     // "Falsified only by" in `V` more counters (see `counts_alone`) for
     // rows of four and five f64 vectors, else one add in memory per row at
-    // the row's lowest rejecting sensor (index 64: no rejecting sensor,
-    // never counted).
-    let mut only_by = [0u64; 65];
+    // the row's lowest rejecting sensor (index 64 or 128, past the row: no
+    // rejecting sensor, never counted).
+    let mut only_by = [0u64; 129];
     // Whether the last block's rows were all candidates (before the first
     // block, the first four rows): then the next block's verdicts come first.
     let mut quiet = m.rows() > 0 && all_candidates::<T, V>(rows_at(0, m.rows().min(4)));
@@ -167,7 +174,7 @@ struct Counters<const V: usize> {
 unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     rows: Rows<T>,
     out: &mut [u32],
-    (c, only_by): (&mut Counters<V>, &mut [u64; 65]),
+    (c, only_by): (&mut Counters<V>, &mut [u64; 129]),
     read: &mut S,
 ) {
     let (k, w) = (rows.k, T::W512 / 2);
@@ -175,7 +182,11 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     // mask and no branch; its lanes also in the vector before are tested
     // twice (the same verdict) and counted from that vector only.
     let start = |v: usize| if v + 1 < V { v * w } else { k - w };
-    let row_lanes = u64::MAX >> (64 - k);
+    // Rows of more than 64 lanes keep their string in a u128 (whose shifts
+    // and counts take two instructions), the others in a u64.
+    let two_words = V * w > 64;
+    let row_lanes = u64::MAX >> (64 - k.min(64));
+    let row_lanes2 = u128::MAX >> (128 - k);
     let alone_in_lanes = counts_alone::<T>(V);
     let pf = Prefetch::FIXED;
     // The intervals loaded once a block: read in the loop, they were loaded
@@ -191,7 +202,7 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     let mut p = rows.p;
     for n_out in out.iter_mut() {
         // Two sums: half the chain of additions.
-        let (mut inside, mut sum) = (0u64, [T::zero256(); 2]);
+        let (mut inside, mut inside2, mut sum) = (0u64, 0u128, [T::zero256(); 2]);
         // Each vector's accepting lanes, until the row's count is known.
         let mut yes_lanes = [_mm256_setzero_si256(); V];
         unrolled!(V, |v| {
@@ -214,13 +225,23 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
             } else {
                 accepting[v] = count::<T>(accepting[v], yes);
             }
-            inside |= u64::from(sign_bits::<T>(yes)) << j;
+            if two_words {
+                inside2 |= u128::from(sign_bits::<T>(yes)) << j;
+            } else {
+                inside |= u64::from(sign_bits::<T>(yes)) << j;
+            }
             yes_lanes[v] = yes;
             sum[v % 2] = T::add256(sum[v % 2], x);
         });
         read.rows_read(p.add(k) as *const u8);
-        let rejects = !inside & row_lanes;
-        let n = rejects.count_ones();
+        // The count and the lowest rejecting sensor (64 or 128 if none).
+        let (n, lowest) = if two_words {
+            let rejects = !inside2 & row_lanes2;
+            (rejects.count_ones(), rejects.trailing_zeros())
+        } else {
+            let rejects = !inside & row_lanes;
+            (rejects.count_ones(), rejects.trailing_zeros())
+        };
         if alone_in_lanes {
             // The row's rejecting lanes if it has one rejecting sensor.
             let single = _mm256_set1_epi32(-i32::from(n == 1));
@@ -237,7 +258,7 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
                 }
             });
         } else {
-            only_by[rejects.trailing_zeros() as usize] += u64::from(n == 1);
+            only_by[lowest as usize] += u64::from(n == 1);
         }
         // The row's sum is NaN iff a value is (or, rarely, infinities
         // cancel). Looked for inline: a call here, even never made, had
@@ -315,9 +336,9 @@ unsafe fn sign_bits<T: Prediction>(inside: __m256i) -> u32 {
 /// AVX2 is available.
 #[inline]
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], k: usize) -> [u64; 64] {
+pub(super) unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], k: usize) -> [u64; 128] {
     let w = T::W512 / 2;
-    let mut counts = [0u64; 64];
+    let mut counts = [0u64; 128];
     for (v, acc) in counters.iter().enumerate() {
         let lanes = if std::mem::size_of::<T>() == 8 {
             pair_counts(counters, v)

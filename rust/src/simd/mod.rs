@@ -30,7 +30,7 @@ macro_rules! by_vectors {
                 const $V: usize = $n;
                 $call
             })*
-            v => panic!("rows of 9-64 sensors (2-16 vectors), got {} sensors ({v:?})", $k),
+            v => panic!("rows of 9-64 sensors, or 9-128 f32 (2-16 vectors), got {} sensors ({v:?})", $k),
         }
     };
 }
