@@ -20,7 +20,7 @@
 //! interval (45 % of the rows rejected) 40-42 -> 84-89; f32 105-106 -> 134-157
 //! and 73-75 -> 139-152. f32 rows of 65-128 took the long-row kernel until
 //! session 36, where typical rows of 65 with diagnostics ran at a third of the
-//! speed of rows of 64 alone on one core, and at 0.56-0.63 of the read floor
+//! speed of rows of 64 alone on one core, and at 0.63 of the read floor
 //! through `falsify` (section "session 36: f32 rows of 65-128" of
 //! `benches/results-long-rows.txt`).
 
