@@ -672,3 +672,21 @@ fn row_batches_agree_under_every_prefetch() {
     }
     before.set();
 }
+
+/// Which rows the medium kernels take (the long-row kernels give the same
+/// results, so the tests above cannot tell): f32 rows of up to 128 sensors
+/// since session 36, f64 rows of up to 64; AVX-512 from three vectors, AVX2
+/// from nine sensors.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn medium_kernels_take_f32_rows_of_up_to_128() {
+    use crate::simd::{medium, medium_avx2};
+    for k in 1..=200usize {
+        let avx512_f32 = (33..=128).contains(&k).then(|| k.div_ceil(16));
+        let avx512_f64 = (17..=64).contains(&k).then(|| k.div_ceil(8));
+        assert_eq!((medium::vectors::<f32>(k), medium::vectors::<f64>(k)), (avx512_f32, avx512_f64), "{k} sensors");
+        let avx2_f32 = (9..=128).contains(&k).then(|| k.div_ceil(8));
+        let avx2_f64 = (9..=64).contains(&k).then(|| k.div_ceil(4));
+        assert_eq!((medium_avx2::vectors::<f32>(k), medium_avx2::vectors::<f64>(k)), (avx2_f32, avx2_f64), "{k} sensors");
+    }
+}
