@@ -43,11 +43,11 @@ const FLUSH_ROWS: usize = 1 << 20;
 
 /// Vectors of `T::W512 / 2` lanes per row of `k` sensors if this kernel
 /// takes them: more than eight sensors (fewer go to `short_avx2`) and at
-/// most sixteen vectors of at most 128 sensors (a row's accepting sensors
+/// most sixteen vectors (so at most 128 sensors: a row's accepting sensors
 /// fit a u128): f32 rows of up to 128, f64 of up to 64.
 pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
     let v = k.div_ceil(T::W512 / 2);
-    (8 < k && v <= 16 && k <= 128).then_some(v)
+    (8 < k && v <= 16).then_some(v)
 }
 
 /// Writes the rejecting-sensor count of every row of `m` to `out` and adds
