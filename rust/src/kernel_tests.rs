@@ -579,11 +579,11 @@ fn calls_split_into_passes_match_portable() {
     }
 }
 
-/// The AVX2 medium kernel (rows of 9-64 sensors, f32 9-128) counts accepting sensors
+/// The AVX2 medium kernel (rows of 9-96 f64 sensors, 9-200 f32) counts accepting sensors
 /// in 32-bit lanes (f64: two vectors to a counter, odd and even vector
-/// counts both checked here), moved to the tally between passes: flushed every 1,000 rows here, over rows of every vector count
-/// (f32 9-128 sensors: 2-16 vectors; f64 9-64: 3-16), most rejected by one sensor,
-/// some NaN, counts and tally equal the portable kernel's.
+/// counts both checked here), moved to the tally between passes: flushed every 1,000 rows here, over rows of
+/// the vector counts where its loop changes (f32 9-200 sensors: 2-25 vectors, the row's string in one, two or
+/// four words; f64 9-96: 3-24), most rejected by one sensor, some NaN, counts and tally equal the portable kernel's.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn medium_avx2_counts_survive_passes() {
@@ -598,7 +598,7 @@ fn medium_avx2_counts_survive_passes() {
         unsafe { diagnose_in_passes(m, b, &mut got, (&mut t, &mut crate::simd::checksum::NoSums), 1_000) };
         assert_eq!((&got[..], &t), (want, tw), "{k} sensors, {}", std::any::type_name::<T>());
     }
-    for k in [9usize, 16, 17, 31, 33, 48, 50, 63, 64, 65, 71, 100, 121, 128] {
+    for k in [9usize, 16, 17, 31, 33, 48, 50, 63, 64, 65, 71, 96, 97, 100, 121, 128, 129, 150, 191, 192, 193, 200, 201] {
         let rows = 3_456;
         let b = SensorBounds::new(&vec![0.0; k], &vec![-1.0; k], &vec![1.0; k]).unwrap();
         let mut state = 0x1357_9BDF_2468_ACE0u64 ^ k as u64;
@@ -618,12 +618,14 @@ fn medium_avx2_counts_survive_passes() {
         diagnose_with(Isa::Portable, m, &b, &mut want, &mut tw);
         assert!(tw.invalid > 0 && tw.only_by.iter().sum::<u64>() > 0 && want.iter().any(|&n| n == 0), "{k} sensors: mixed rows");
         assert!(tw.per_sensor.iter().all(|&c| c > 3), "{k} sensors: every sensor rejects in several passes");
-        if k <= 64 {
-            check(m, &b, &want, &tw); // f64 rows of more than 64 are not this kernel's
+        if k <= 96 {
+            check(m, &b, &want, &tw); // f64 rows of more than 96 are not this kernel's
         }
-        let mut tw = Tally::zeros(k);
-        diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
-        check(m32, &b, &want, &tw);
+        if k <= 200 {
+            let mut tw = Tally::zeros(k);
+            diagnose_with(Isa::Portable, m32, &b, &mut want, &mut tw);
+            check(m32, &b, &want, &tw); // f32 rows of more than 200 are not this kernel's
+        }
     }
 }
 
@@ -674,19 +676,20 @@ fn row_batches_agree_under_every_prefetch() {
 }
 
 /// Which rows the medium kernels take (the long-row kernels give the same
-/// results, so the tests above cannot tell): f32 rows of up to 128 sensors
-/// since session 36, f64 rows of up to 64; AVX-512 from three vectors, AVX2
-/// from nine sensors.
+/// results, so the tests above cannot tell): at AVX-512 f32 rows of up to
+/// 128 sensors (since session 36) and f64 rows of up to 64, from three
+/// vectors; at AVX2 (since session 37) f32 rows of up to 200 and f64 rows
+/// of up to 96, from nine sensors.
 #[cfg(target_arch = "x86_64")]
 #[test]
-fn medium_kernels_take_f32_rows_of_up_to_128() {
+fn medium_kernels_take_the_widths_they_were_measured_on() {
     use crate::simd::{medium, medium_avx2};
-    for k in 1..=200usize {
+    for k in 1..=260usize {
         let avx512_f32 = (33..=128).contains(&k).then(|| k.div_ceil(16));
         let avx512_f64 = (17..=64).contains(&k).then(|| k.div_ceil(8));
         assert_eq!((medium::vectors::<f32>(k), medium::vectors::<f64>(k)), (avx512_f32, avx512_f64), "{k} sensors");
-        let avx2_f32 = (9..=128).contains(&k).then(|| k.div_ceil(8));
-        let avx2_f64 = (9..=64).contains(&k).then(|| k.div_ceil(4));
+        let avx2_f32 = (9..=200).contains(&k).then(|| k.div_ceil(8));
+        let avx2_f64 = (9..=96).contains(&k).then(|| k.div_ceil(4));
         assert_eq!((medium_avx2::vectors::<f32>(k), medium_avx2::vectors::<f64>(k)), (avx2_f32, avx2_f64), "{k} sensors");
     }
 }

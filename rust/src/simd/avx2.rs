@@ -1,5 +1,5 @@
 //! AVX2: rows of more than eight sensors are tested by `long_avx2`, in the
-//! predictions' own type, except that rows of 9-64 sensors (f32: 9-128)
+//! predictions' own type, except that rows of 9-96 f64 or 9-200 f32 sensors
 //! stored one after another are diagnosed by `medium_avx2` (the same work for every
 //! row; rows of up to 32 f32 or 12 f64 sensors by `medium_avx2_short`), and
 //! rows of 9-16 f32 or 9-12 f64 are screened by `medium_avx2_screen`; rows

@@ -1,6 +1,6 @@
-//! AVX2 diagnostics for rows stored one after another in memory of 9-128
-//! f32 sensors (two to sixteen vectors of eight) or 9-64 f64 (three to
-//! sixteen of four),
+//! AVX2 diagnostics for rows stored one after another in memory of 9-200
+//! f32 sensors (two to twenty-five vectors of eight) or 9-96 f64 (three to
+//! twenty-four of four),
 //! the AVX2 counterpart of `medium`: every row gets the same work, with no
 //! branch on its verdict, except that after a block of candidates the next
 //! block's verdicts come first (`medium_avx2_short::candidates_first`), so a
@@ -12,7 +12,7 @@
 //! lane per sensor (rejections = rows - acceptances: no complement, no bit
 //! expansion; f64 vectors two to a counter, see `pair_lanes`); the same
 //! lanes' sign bits make the row's accepting sensors one 64-bit word (two
-//! for f32 rows of more than 64), whose
+//! for rows of 65-128, four for f32 rows of more than 128), whose
 //! complement's popcount is the violation count and whose lowest bit is the
 //! first rejecting sensor ("falsified only by" for rows of four and five
 //! f64 vectors: `counts_alone`). Rows of up to four f32 and three f64
@@ -28,7 +28,9 @@
 //! (`benches/results-long-rows.txt`, "session 20"). It took f32 rows of
 //! 65-128 too until session 36: typical rows of 65 with diagnostics read
 //! 16 GB/s alone on a core against 29 for rows of 64 (section "session 36:
-//! f32 rows of 65-128").
+//! f32 rows of 65-128"); and f64 rows of 65-96 and f32 rows of 129-200
+//! until session 37, when typical float32 rows of 150 with diagnostics read 0.61-0.64 of the floor through `falsify`
+//! (two runs; see [`vectors`]).
 
 use super::checksum::RowsRead;
 use super::medium_avx2_short::{self, all_candidates, candidates_first, Rows, BLOCK_ROWS};
@@ -42,12 +44,23 @@ use std::arch::x86_64::*;
 const FLUSH_ROWS: usize = 1 << 20;
 
 /// Vectors of `T::W512 / 2` lanes per row of `k` sensors if this kernel
-/// takes them: more than eight sensors (fewer go to `short_avx2`) and at
-/// most sixteen vectors (so at most 128 sensors: a row's accepting sensors
-/// fit a u128): f32 rows of up to 128, f64 of up to 64.
+/// takes them: more than eight sensors (fewer go to `short_avx2`), f32
+/// rows of up to 200 (twenty-five vectors, the issue's widest rows) and
+/// f64 rows of up to 96 (twenty-four vectors).
+///
+/// Why: past sixteen vectors the counters and intervals live on the stack,
+/// yet alone on a core (AMD EPYC Zen 4, `cargo bench --bench core_kernels`,
+/// against `long_avx2`, which took them before) typical and
+/// single-rejection float64 rows of 65-96 with diagnostics ran 0.99-1.30 times as fast
+/// (worst case 1.21-1.69) and float32 rows of 129-200 1.03-1.11 (worst case 1.52-1.60);
+/// with f64 rows of up to 128 on this kernel, rows of 112 and 128 ran 0.99-1.01 times as fast
+/// (typical and single rejections), so f64 stops at 96, where the gain
+/// has gone, as each vector count is one more compiled loop
+/// (`benches/results-long-rows.txt`, "session 37: the AVX2 medium kernel
+/// takes f64 rows of 65-96 and f32 rows of 129-200").
 pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
     let v = k.div_ceil(T::W512 / 2);
-    (8 < k && v <= 16).then_some(v)
+    (8 < k && v <= if std::mem::size_of::<T>() == 8 { 24 } else { 25 }).then_some(v)
 }
 
 /// Writes the rejecting-sensor count of every row of `m` to `out` and adds
@@ -111,9 +124,9 @@ unsafe fn diagnose_rows<T: Prediction, const V: usize, S: RowsRead>(
     let rows_at = |first: usize, end: usize| Rows::of(m, first..end, accept);
     // "Falsified only by" in `V` more counters (see `counts_alone`) for
     // rows of four and five f64 vectors, else one add in memory per row at
-    // the row's lowest rejecting sensor (index 64 or 128, past the row: no
-    // rejecting sensor, never counted).
-    let mut only_by = [0u64; 129];
+    // the row's lowest rejecting sensor (index 64, 128 or 256, past the row:
+    // no rejecting sensor, never counted).
+    let mut only_by = [0u64; 257];
     // Whether the last block's rows were all candidates (before the first
     // block, the first four rows): then the next block's verdicts come first.
     let mut quiet = m.rows() > 0 && all_candidates::<T, V>(rows_at(0, m.rows().min(4)));
@@ -174,7 +187,7 @@ struct Counters<const V: usize> {
 unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     rows: Rows<T>,
     out: &mut [u32],
-    (c, only_by): (&mut Counters<V>, &mut [u64; 129]),
+    (c, only_by): (&mut Counters<V>, &mut [u64; 257]),
     read: &mut S,
 ) {
     let (k, w) = (rows.k, T::W512 / 2);
@@ -183,10 +196,21 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     // twice (the same verdict) and counted from that vector only.
     let start = |v: usize| if v + 1 < V { v * w } else { k - w };
     // Rows of more than 64 lanes keep their string in a u128 (whose shifts
-    // and counts take two instructions), the others in a u64.
-    let two_words = V * w > 64;
+    // and counts take two instructions), the others in a u64; f32 rows of
+    // more than 128 in four u64 words, each vector's bits in one word (see
+    // `at` below).
+    let (two_words, four_words) = (V * w > 64 && V * w <= 128, V * w > 128);
     let row_lanes = u64::MAX >> (64 - k.min(64));
-    let row_lanes2 = u128::MAX >> (128 - k);
+    let row_lanes2 = u128::MAX >> (128 - k.min(128));
+    let row_lanes4: [u64; 4] = std::array::from_fn(|i| match k.saturating_sub(64 * i) {
+        0 => 0,
+        n if n >= 64 => u64::MAX,
+        n => u64::MAX >> (64 - n),
+    });
+    // Four words: the last vector's bits past the vector before, shifted
+    // down to the lane after it, so that every vector's bits start at a
+    // multiple of `w` (a constant) and none straddles two words.
+    let repeated = V * w - k;
     let alone_in_lanes = counts_alone::<T>(V);
     let pf = Prefetch::FIXED;
     // The intervals loaded once a block: read in the loop, they were loaded
@@ -202,7 +226,7 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     let mut p = rows.p;
     for n_out in out.iter_mut() {
         // Two sums: half the chain of additions.
-        let (mut inside, mut inside2, mut sum) = (0u64, 0u128, [T::zero256(); 2]);
+        let (mut inside, mut inside2, mut inside4, mut sum) = (0u64, 0u128, [0u64; 4], [T::zero256(); 2]);
         // Each vector's accepting lanes, until the row's count is known.
         let mut yes_lanes = [_mm256_setzero_si256(); V];
         unrolled!(V, |v| {
@@ -225,7 +249,10 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
             } else {
                 accepting[v] = count::<T>(accepting[v], yes);
             }
-            if two_words {
+            if four_words {
+                let (bits, at) = if v + 1 < V { (sign_bits::<T>(yes), v * w) } else { (sign_bits::<T>(yes) >> repeated, v * w) };
+                inside4[at / 64] |= u64::from(bits) << (at % 64);
+            } else if two_words {
                 inside2 |= u128::from(sign_bits::<T>(yes)) << j;
             } else {
                 inside |= u64::from(sign_bits::<T>(yes)) << j;
@@ -234,8 +261,17 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
             sum[v % 2] = T::add256(sum[v % 2], x);
         });
         read.rows_read(p.add(k) as *const u8);
-        // The count and the lowest rejecting sensor (64 or 128 if none).
-        let (n, lowest) = if two_words {
+        // The count and the lowest rejecting sensor (64, 128 or 256 if none).
+        let (n, lowest) = if four_words {
+            let rejects: [u64; 4] = std::array::from_fn(|i| !inside4[i] & row_lanes4[i]);
+            let n = rejects.iter().map(|r| r.count_ones()).sum::<u32>();
+            // The lowest word with a rejection, without a branch.
+            let mut lowest = 256;
+            for i in (0..4).rev() {
+                lowest = if rejects[i] != 0 { 64 * i as u32 + rejects[i].trailing_zeros() } else { lowest };
+            }
+            (n, lowest)
+        } else if two_words {
             let rejects = !inside2 & row_lanes2;
             (rejects.count_ones(), rejects.trailing_zeros())
         } else {
@@ -336,9 +372,9 @@ unsafe fn sign_bits<T: Prediction>(inside: __m256i) -> u32 {
 /// AVX2 is available.
 #[inline]
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], k: usize) -> [u64; 128] {
+pub(super) unsafe fn sensor_counts<T: Prediction, const V: usize>(counters: &[__m256i; V], k: usize) -> [u64; 256] {
     let w = T::W512 / 2;
-    let mut counts = [0u64; 128];
+    let mut counts = [0u64; 256];
     for (v, acc) in counters.iter().enumerate() {
         let lanes = if std::mem::size_of::<T>() == 8 {
             pair_counts(counters, v)

@@ -5,12 +5,12 @@
 //! which give exactly the verdict of the portable code's residual test, so
 //! every level gives the same answer.
 
-/// Runs `$body` with `$v` = 0, 1, .. while below `$V` (at most 16),
+/// Runs `$body` with `$v` = 0, 1, .. while below `$V` (at most 25),
 /// unrolled: LLVM left such a loop rolled for eight f64 vectors, with the
 /// counters and the intervals on the stack (half the speed; `medium`).
 macro_rules! unrolled {
     ($V:expr, |$v:ident| $body:block) => {
-        unrolled!(@ $V, $v, $body, 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15)
+        unrolled!(@ $V, $v, $body, 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24)
     };
     (@ $V:expr, $v:ident, $body:block, $($i:literal)*) => {
         $( if $i < $V { let $v: usize = $i; $body } )*
@@ -18,11 +18,11 @@ macro_rules! unrolled {
 }
 
 /// `$call` with `$V` a constant: the AVX2 vectors of a row of `$k` sensors
-/// of type `$T` as `medium_avx2::vectors` gives them (2-16; panics
+/// of type `$T` as `medium_avx2::vectors` gives them (2-25; panics
 /// otherwise), so each count gets its own compiled loop.
 macro_rules! by_vectors {
     ($T:ty, $k:expr, |$V:ident| $call:expr) => {
-        by_vectors!(@ $T, $k, $V, $call, 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+        by_vectors!(@ $T, $k, $V, $call, 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25)
     };
     (@ $T:ty, $k:expr, $V:ident, $call:expr, $($n:literal)*) => {
         match $crate::simd::medium_avx2::vectors::<$T>($k) {
@@ -30,7 +30,7 @@ macro_rules! by_vectors {
                 const $V: usize = $n;
                 $call
             })*
-            v => panic!("rows of 9-64 sensors, or 9-128 f32 (2-16 vectors), got {} sensors ({v:?})", $k),
+            v => panic!("rows of 9-96 f64 or 9-200 f32 sensors (2-25 vectors), got {} sensors ({v:?})", $k),
         }
     };
 }
