@@ -471,7 +471,8 @@ fn periodic_nan_rows_are_counted_once_across_flushes() {
 /// kernel's tally and counts.
 #[test]
 fn long_row_counts_survive_flushes() {
-    for (k, rows) in [(65usize, 70_000usize), (33, 3_000), (50, 3_000), (130, 3_000)] {
+    // f32 rows of 201 and 260: the AVX2 long-row kernel's since f32 rows of up to 200 take `medium_avx2`.
+    for (k, rows) in [(65usize, 70_000usize), (33, 3_000), (50, 3_000), (130, 3_000), (201, 3_000), (260, 3_000)] {
         long_row_counts_survive_flushes_of(k, rows);
     }
 }
@@ -583,7 +584,8 @@ fn calls_split_into_passes_match_portable() {
 /// in 32-bit lanes (f64: two vectors to a counter, odd and even vector
 /// counts both checked here), moved to the tally between passes: flushed every 1,000 rows here, over rows of
 /// the vector counts where its loop changes (f32 9-200 sensors: 2-25 vectors, the row's string in one, two or
-/// four words; f64 9-96: 3-24), most rejected by one sensor, some NaN, counts and tally equal the portable kernel's.
+/// four words; f64 9-96: 3-24), some rejected by one sensor, some NaN, a run of 400 candidates, counts and tally
+/// equal the portable kernel's.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn medium_avx2_counts_survive_passes() {
@@ -606,6 +608,8 @@ fn medium_avx2_counts_survive_passes() {
             .map(|i| {
                 let u = crate::testing::uniform(&mut state);
                 match (u * 1e6) as usize % 200 {
+                    // A run of candidates: the blocks after the first whole one take `candidates_first`.
+                    _ if (1_000..1_400).contains(&(i / k)) => u - 0.5,
                     0 => f64::NAN,
                     1..=3 => 1.5 * if i % 2 == 0 { 1.0 } else { -1.0 },
                     _ => u - 0.5,

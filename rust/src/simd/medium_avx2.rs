@@ -54,8 +54,9 @@ const FLUSH_ROWS: usize = 1 << 20;
 /// single-rejection float64 rows of 65-96 with diagnostics ran 0.99-1.30 times as fast
 /// (worst case 1.21-1.69) and float32 rows of 129-200 1.03-1.11 (worst case 1.52-1.60);
 /// with f64 rows of up to 128 on this kernel, rows of 112 and 128 ran 0.99-1.01 times as fast
-/// (typical and single rejections), so f64 stops at 96, where the gain
-/// has gone, as each vector count is one more compiled loop
+/// (typical and single rejections; worst case 1.53-1.55). f64 stops at
+/// 96, a judgement: past it the typical rows gain nothing, and each vector
+/// count is one more compiled loop
 /// (`benches/results-long-rows.txt`, "session 37: the AVX2 medium kernel
 /// takes f64 rows of 65-96 and f32 rows of 129-200").
 pub fn vectors<T: Prediction>(k: usize) -> Option<usize> {
