@@ -199,7 +199,7 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
     // Rows of more than 64 lanes keep their string in a u128 (whose shifts
     // and counts take two instructions), the others in a u64; f32 rows of
     // more than 128 in four u64 words, each vector's bits in one word (see
-    // `at` below).
+    // `repeated`).
     let (two_words, four_words) = (V * w > 64 && V * w <= 128, V * w > 128);
     let row_lanes = u64::MAX >> (64 - k.min(64));
     let row_lanes2 = u128::MAX >> (128 - k.min(128));
@@ -251,8 +251,8 @@ unsafe fn diagnose_block<T: Prediction, const V: usize, S: RowsRead>(
                 accepting[v] = count::<T>(accepting[v], yes);
             }
             if four_words {
-                let (bits, at) = if v + 1 < V { (sign_bits::<T>(yes), v * w) } else { (sign_bits::<T>(yes) >> repeated, v * w) };
-                inside4[at / 64] |= u64::from(bits) << (at % 64);
+                let bits = sign_bits::<T>(yes) >> if v + 1 < V { 0 } else { repeated };
+                inside4[v * w / 64] |= u64::from(bits) << (v * w % 64);
             } else if two_words {
                 inside2 |= u128::from(sign_bits::<T>(yes)) << j;
             } else {
